@@ -1,0 +1,36 @@
+# The README's two commands: `make test` and `make book`. Both set up first (idempotent).
+SHELL := /bin/bash
+PY    := .venv/bin/python
+PIP   := .venv/bin/pip
+JOBS  ?= 2
+
+.PHONY: setup test unit notebooks book train bench clean
+
+setup: .venv/.installed
+
+.venv/.installed: requirements.txt pyproject.toml
+	test -x $(PY) || python3 -m venv .venv
+	$(PIP) install --disable-pip-version-check -q -r requirements.txt
+	$(PIP) install --disable-pip-version-check -q --no-deps --no-build-isolation -e .
+	touch $@
+
+# Unit tests, short learning runs and CLI errors, then every notebook under nbmake, all with
+# ACDER_FAST=1 (smaller budgets, same code path).
+test: setup
+	ACDER_FAST=1 $(PY) -m pytest -n $(JOBS) -q tests
+	@if ls notebooks/*.ipynb >/dev/null 2>&1; then \
+	  ACDER_FAST=1 $(PY) -m pytest -n $(JOBS) -q --nbmake --nbmake-timeout=180 notebooks; fi
+
+# Execute the notebooks and build the HTML book into _build/html (offline, warnings are errors).
+book: setup
+	$(PY) -m jupyter_book build --warningiserror --keep-going .
+
+# make train ARGS="--env FetchPush-v4 --method acder --seed 0 --out results/FetchPush-v4/acder/seed0"
+train: setup
+	$(PY) -m acder_lite train $(ARGS)
+
+bench: setup
+	$(PY) -m acder_lite bench $(ARGS)
+
+clean:
+	rm -rf _build .pytest_cache

@@ -1,0 +1,168 @@
+"""`python -m acder_lite {train,eval,bench,sweep,table}`.
+
+Bad input exits with code 2 and one line naming the field and what is allowed; no traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import sys
+
+from .config import Config, ConfigError, field_docs
+from .io import CheckpointError
+
+# Config fields that are not command-line options.
+_NOT_OPTIONS = {"switches"}
+# Fields a resumed run may change (everything else is fixed by the checkpoint).
+_RESUMABLE = {"epochs", "threads", "stop_after_success", "stop_patience"}
+
+
+class UsageError(Exception):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2 (argparse would print the usage block too)
+        raise UsageError(f"{self.prog}: {message}")
+
+
+def _field_type(f: dataclasses.Field):
+    t = f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))
+    if "int" in t and "float" not in t:
+        return int
+    if "float" in t:
+        return float
+    return str
+
+
+def add_config_options(p: argparse.ArgumentParser) -> None:
+    docs = field_docs()
+    for f in dataclasses.fields(Config):
+        if f.name in _NOT_OPTIONS:
+            continue
+        doc = docs.get(f.name, "").replace("%", "%%")
+        default = f.default if f.default is not dataclasses.MISSING else None
+        p.add_argument("--" + f.name.replace("_", "-"), dest=f.name, type=_field_type(f), default=None,
+                       help=f"{doc} (default: {default})".strip())
+
+
+def _given(args) -> dict:
+    return {f.name: getattr(args, f.name) for f in dataclasses.fields(Config)
+            if f.name not in _NOT_OPTIONS and getattr(args, f.name, None) is not None}
+
+
+def cmd_train(args) -> int:
+    from .io import load_torch
+    from .trainer import Trainer
+    given = _given(args)
+    if args.resume:
+        ckpt_path = os.path.join(args.resume, "checkpoint.pt")
+        ckpt = load_torch(ckpt_path)
+        cfg = Config.from_dict({k: v for k, v in ckpt["config"].items()})
+        for k, v in given.items():
+            if k in _RESUMABLE:
+                setattr(cfg, k, v)
+            elif v != getattr(cfg, k):
+                raise ConfigError(f"{k}={v!r} differs from the checkpoint's {getattr(cfg, k)!r}; "
+                                  f"a resumed run may change only: {', '.join(sorted(_RESUMABLE))}")
+        out = args.resume
+        trainer = Trainer(cfg, out, command=sys.argv)
+        trainer.load_state_dict(ckpt)
+        trainer.done = trainer.done and trainer.cycle >= cfg.epochs * cfg.cycles
+    else:
+        if not args.out:
+            raise UsageError("train: --out DIR is required (or --resume DIR)")
+        if os.path.exists(os.path.join(args.out, "checkpoint.pt")) or os.path.exists(os.path.join(args.out, "progress.csv")):
+            raise UsageError(f"train: --out {args.out!r} already holds a run; allowed: a new folder, "
+                             f"or --resume {args.out} to continue it")
+        cfg = Config(**given)
+        out = args.out
+        trainer = Trainer(cfg, out, command=sys.argv)
+    try:
+        rows = trainer.train(progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"interrupted: the last checkpoint is in {out}; continue with "
+              f"`python -m acder_lite train --resume {out}`", file=sys.stderr)
+        return 130
+    last = rows[-1] if rows else {}
+    print(f"done: {out} epochs={trainer.cycle / cfg.cycles:g} episodes={trainer.episodes} "
+          f"test_success={last.get('test_success', float('nan')):.3f}")
+    return 0
+
+
+def cmd_eval(args) -> int:
+    import numpy as np
+
+    from . import envs as E
+    from .io import load_torch
+    from .trainer import Policy, run_episodes
+    if args.episodes < 1:
+        raise UsageError(f"eval: --episodes {args.episodes} is not allowed: an integer >= 1")
+    ckpt = load_torch(args.checkpoint)
+    pol = ckpt["policy"]
+    env_id = args.env or pol["env"]
+    if env_id != pol["env"]:
+        raise CheckpointError(f"checkpoint {args.checkpoint!r} was trained on {pol['env']}, not {env_id}; "
+                              f"allowed: --env {pol['env']}")
+    policy = Policy.from_state_dict(pol)
+    env = E.make_env(env_id, seed=args.seed)
+    T = E.horizon(env_id)
+    succ = [run_episodes([env], policy, T)["success"][0] for _ in range(args.episodes)]
+    print(f"eval: env={env_id} method={pol['method']} episodes={args.episodes} "
+          f"success_rate={float(np.mean(succ)):.3f}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from .bench import run_bench
+    return run_bench(args)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="python -m acder_lite", description=__doc__)
+    sub = p.add_subparsers(dest="cmd", parser_class=_Parser, required=True)
+
+    t = sub.add_parser("train", help="train one (env, method, seed)")
+    add_config_options(t)
+    t.add_argument("--out", help="run folder: progress.csv, config.json, checkpoint.pt, policy.pt")
+    t.add_argument("--resume", metavar="DIR", help="continue the run in DIR from its last checkpoint")
+    t.add_argument("--quiet", action="store_true", help="no progress bar")
+    t.set_defaults(func=cmd_train)
+
+    e = sub.add_parser("eval", help="success rate of a trained policy")
+    e.add_argument("--checkpoint", required=True, help="checkpoint.pt or policy.pt")
+    e.add_argument("--episodes", type=int, default=10)
+    e.add_argument("--env", default=None, help="must match the checkpoint's env (default: the checkpoint's)")
+    e.add_argument("--seed", type=int, default=12345)
+    e.set_defaults(func=cmd_eval)
+
+    b = sub.add_parser("bench", help="time simulation and training per episode (paper protocol)")
+    b.add_argument("--env", default="FetchPush-v4")
+    b.add_argument("--method", default="her")
+    b.add_argument("--workers", type=int, default=4)
+    b.add_argument("--cycles", type=int, default=3, help="timed cycles (after one warm-up cycle)")
+    b.add_argument("--threads", type=int, default=2)
+    b.set_defaults(func=cmd_bench)
+
+    for name, modname in (("sweep", "sweep"), ("table", "table")):
+        try:
+            mod = __import__(f"acder_lite.{modname}", fromlist=["run"])
+        except ImportError:
+            continue
+        s = sub.add_parser(name, help=(mod.__doc__ or "").strip().splitlines()[0] if mod.__doc__ else None)
+        mod.add_arguments(s)
+        s.set_defaults(func=mod.run)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        args = build_parser().parse_args(argv)
+        return int(args.func(args) or 0)
+    except (UsageError, ConfigError, CheckpointError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,40 @@
+"""Networks: the actor, the critic (Baselines' HER: 3x256 ReLU MLPs) and a generic MLP."""
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+
+def mlp(sizes: list[int], out_act: type[nn.Module] | None = None) -> nn.Sequential:
+    layers: list[nn.Module] = []
+    for i in range(len(sizes) - 1):
+        layers.append(nn.Linear(sizes[i], sizes[i + 1]))
+        if i < len(sizes) - 2:
+            layers.append(nn.ReLU())
+    if out_act is not None:
+        layers.append(out_act())
+    return nn.Sequential(*layers)
+
+
+class Actor(nn.Module):
+    """pi(o, g) = max_u * tanh(MLP([o_norm, g_norm]))."""
+
+    def __init__(self, in_dim: int, act_dim: int, hidden: int = 256, layers: int = 3, max_u: float = 1.0):
+        super().__init__()
+        self.max_u = max_u
+        self.net = mlp([in_dim] + [hidden] * layers + [act_dim], nn.Tanh)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.max_u * self.net(x)
+
+
+class Critic(nn.Module):
+    """Q(o, g, u) = MLP([o_norm, g_norm, u / max_u])."""
+
+    def __init__(self, in_dim: int, act_dim: int, hidden: int = 256, layers: int = 3, max_u: float = 1.0):
+        super().__init__()
+        self.max_u = max_u
+        self.net = mlp([in_dim + act_dim] + [hidden] * layers + [1])
+
+    def forward(self, x: torch.Tensor, u: torch.Tensor) -> torch.Tensor:
+        return self.net(torch.cat([x, u / self.max_u], dim=-1)).squeeze(-1)

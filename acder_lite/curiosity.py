@@ -1,0 +1,83 @@
+"""Curiosity: S-ICM (the paper's forward model, Eq. 4, 7-8) and ICM (Pathak et al. 2017, a baseline).
+
+Both are trained on the same minibatch and in the same step as the policy (Eq. 7) and return one
+intrinsic reward per transition, computed before their own update.
+"""
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from .core import mlp
+
+
+class SICM(nn.Module):
+    """S-ICM's forward dynamics model F(s_t, a_t) -> s_{t+1}, with s = normalised (o, g).
+
+    Paper, section V-B: "three-layer fully connected": input [s, a], one hidden layer of 256 ReLU
+    units, output the dimension of (o, g).
+    """
+
+    def __init__(self, s_dim: int, act_dim: int, hidden: int = 256, lr: float = 1e-3):
+        super().__init__()
+        self.net = mlp([s_dim + act_dim, hidden, s_dim])
+        self.opt = torch.optim.Adam(self.net.parameters(), lr=lr)
+
+    def forward(self, s: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
+        return self.net(torch.cat([s, a], dim=-1))
+
+    def errors(self, s, a, s2) -> tuple[torch.Tensor, torch.Tensor]:
+        """Per-row 1/2 ||F(s, a) - s'||^2 (Eq. 8 before the mean) and the prediction."""
+        pred = self(s, a)
+        return 0.5 * (pred - s2).pow(2).sum(-1), pred
+
+    def step(self, s, a, s2, eta: float) -> tuple[torch.Tensor, torch.Tensor]:
+        """Intrinsic rewards (Eq. 4, clipped to [0, eta]) then one Adam step on L_F (Eq. 8).
+
+        Returns (r_int, loss), both detached.
+        """
+        err, _ = self.errors(s, a, s2)
+        loss = err.mean()
+        self.opt.zero_grad(set_to_none=True)
+        loss.backward()
+        self.opt.step()
+        err = err.detach()
+        return err.clamp(0.0, eta), loss.detach()
+
+
+class ICM(nn.Module):
+    """Pathak et al. 2017: features phi(s), an inverse model a_hat = g(phi(s), phi(s')) and a
+    forward model phi_hat(s') = f(phi(s), a).
+
+    Loss = (1 - beta) * L_inverse + beta * L_forward (the paper's beta = 0.2). The intrinsic reward
+    is the forward error in feature space, 1/2 ||phi_hat(s') - phi(s')||^2, clipped to [0, eta] like
+    ACDER's so the two are on one scale (a departure: Pathak scales by eta and does not clip).
+    Continuous actions: the inverse loss is a mean squared error.
+    """
+
+    def __init__(self, s_dim: int, act_dim: int, feat_dim: int = 64, hidden: int = 256,
+                 beta: float = 0.2, lr: float = 1e-3):
+        super().__init__()
+        self.beta = beta
+        self.phi = mlp([s_dim, hidden, feat_dim])
+        self.inverse = mlp([2 * feat_dim, hidden, act_dim])
+        self.forward_model = mlp([feat_dim + act_dim, hidden, feat_dim])
+        self.opt = torch.optim.Adam(self.parameters(), lr=lr)
+
+    def losses(self, s, a, s2) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(per-row forward error, inverse loss, forward loss)."""
+        f, f2 = self.phi(s), self.phi(s2)
+        a_hat = self.inverse(torch.cat([f, f2], -1))
+        inv = (a_hat - a).pow(2).sum(-1).mean()
+        # The forward loss does not move the features (Pathak's encoder is trained by the
+        # inverse loss only), or phi would collapse to a constant that predicts itself.
+        err = 0.5 * (self.forward_model(torch.cat([f.detach(), a], -1)) - f2.detach()).pow(2).sum(-1)
+        return err, inv, err.mean()
+
+    def step(self, s, a, s2, eta: float) -> tuple[torch.Tensor, torch.Tensor]:
+        err, inv, fwd = self.losses(s, a, s2)
+        loss = (1 - self.beta) * inv + self.beta * fwd
+        self.opt.zero_grad(set_to_none=True)
+        loss.backward()
+        self.opt.step()
+        return err.detach().clamp(0.0, eta), loss.detach()

@@ -1,0 +1,87 @@
+"""DDPG as in Baselines' HER: one function per loss, and the agent that steps both.
+
+Each loss takes a batch of tensors (`x` = normalised [o, g], `x2` = normalised [o2, g], `u`, `r`)
+so a test can call it on a fixed batch.
+"""
+from __future__ import annotations
+
+import copy
+
+import torch
+
+from .core import Actor, Critic
+
+
+def compute_loss_q(critic, actor_targ, critic_targ, batch: dict, gamma: float,
+                   clip_return: tuple[float, float], weights: torch.Tensor | None = None):
+    """Eq. 1-2: L = mean_i w_i (y_i - Q(s_i, a_i))^2 with y_i = r_i + gamma Q'(s_{i+1}, pi'(s_{i+1})).
+
+    y is clipped to `clip_return` (Baselines: [-1/(1-gamma), 0]; wider with ACDER's rewards, see
+    DESIGN.md). No terminal masking: Fetch episodes only end by the time limit. `weights` are PER's
+    importance weights (None: all 1). Returns (loss, td_error) with td_error = y - Q, detached.
+    """
+    with torch.no_grad():
+        q_next = critic_targ(batch["x2"], actor_targ(batch["x2"]))
+        y = (batch["r"] + gamma * q_next).clamp_(*clip_return)
+    q = critic(batch["x"], batch["u"])
+    td = y - q
+    sq = td.pow(2)
+    loss = sq.mean() if weights is None else (weights * sq).mean()
+    return loss, td.detach()
+
+
+def compute_loss_pi(actor, critic, batch: dict, action_l2: float):
+    """Eq. 3 as a loss: -mean Q(s, pi(s)) + action_l2 * mean (pi(s)/max_u)^2 (Baselines' penalty).
+
+    Trap: the critic's weights must not be trained by this loss; the caller freezes them.
+    """
+    pi = actor(batch["x"])
+    return -critic(batch["x"], pi).mean() + action_l2 * (pi / actor.max_u).pow(2).mean()
+
+
+class DDPG:
+    """Actor, critic, their targets and Adam optimisers."""
+
+    def __init__(self, in_dim: int, act_dim: int, cfg, max_u: float = 1.0):
+        self.cfg = cfg
+        self.actor = Actor(in_dim, act_dim, cfg.hidden, cfg.layers, max_u)
+        self.critic = Critic(in_dim, act_dim, cfg.hidden, cfg.layers, max_u)
+        self.actor_targ = copy.deepcopy(self.actor).requires_grad_(False)
+        self.critic_targ = copy.deepcopy(self.critic).requires_grad_(False)
+        self.pi_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr_actor)
+        self.q_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr_critic)
+
+    def update(self, batch: dict, clip_return, weights=None) -> dict:
+        """One gradient step of critic and actor, both computed with the critic before its step
+        (as Baselines does in one session run). Returns losses and |TD| for PER."""
+        q_loss, td = compute_loss_q(self.critic, self.actor_targ, self.critic_targ, batch,
+                                    self.cfg.gamma, clip_return, weights)
+        self.q_opt.zero_grad(set_to_none=True)
+        q_loss.backward()
+        # Freeze the critic for the actor's loss: skips its weight gradients (a third of its
+        # backward pass) and keeps the critic's .grad from the critic loss alone.
+        self.critic.requires_grad_(False)
+        pi_loss = compute_loss_pi(self.actor, self.critic, batch, self.cfg.action_l2)
+        self.pi_opt.zero_grad(set_to_none=True)
+        pi_loss.backward()
+        self.critic.requires_grad_(True)
+        self.q_opt.step()
+        self.pi_opt.step()
+        return dict(critic_loss=q_loss.detach(), actor_loss=pi_loss.detach(), td=td)
+
+    @torch.no_grad()
+    def update_targets(self) -> None:
+        """Polyak averaging: target <- polyak * target + (1 - polyak) * main."""
+        p = self.cfg.polyak
+        for net, targ in ((self.actor, self.actor_targ), (self.critic, self.critic_targ)):
+            for a, b in zip(targ.parameters(), net.parameters()):
+                a.mul_(p).add_(b, alpha=1 - p)
+
+    def state_dict(self) -> dict:
+        return dict(actor=self.actor.state_dict(), critic=self.critic.state_dict(),
+                    actor_targ=self.actor_targ.state_dict(), critic_targ=self.critic_targ.state_dict(),
+                    pi_opt=self.pi_opt.state_dict(), q_opt=self.q_opt.state_dict())
+
+    def load_state_dict(self, d: dict) -> None:
+        for k in ("actor", "critic", "actor_targ", "critic_targ", "pi_opt", "q_opt"):
+            getattr(self, k).load_state_dict(d[k])

@@ -1,0 +1,95 @@
+"""The Fetch tasks: construction, seeding, and saving/restoring the full MuJoCo state.
+
+We step the unwrapped MuJoCo env and count the 50-step horizon ourselves (as Baselines' rollout
+worker does), which skips gymnasium's checker wrappers on the hot path.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import warnings
+
+import mujoco
+import numpy as np
+
+from .config import ENV_IDS, ConfigError
+
+STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
+"""What a stored state holds: time, qpos, qvel, act, mocap pose, ... (everything physical)."""
+
+
+def _import_robotics():
+    import gymnasium as gym
+    # gymnasium_robotics prints a notice about Adroit envs on import; it concerns none of ours.
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        import gymnasium_robotics
+        gym.register_envs(gymnasium_robotics)
+    return gym
+
+
+def make_env(env_id: str, seed: int | None = None):
+    """Build a goal-based Fetch env (the unwrapped MuJoCo env) and seed it.
+
+    Raises ConfigError for an id that is not a known Fetch task or whose observation is not the
+    goal-based dict (observation, achieved_goal, desired_goal).
+    """
+    if env_id not in ENV_IDS:
+        raise ConfigError(f"env={env_id!r} is not allowed: one of {', '.join(ENV_IDS)}")
+    gym = _import_robotics()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        env = gym.make(env_id)
+    space = env.observation_space
+    keys = set(getattr(space, "spaces", {}) or {})
+    if not {"observation", "achieved_goal", "desired_goal"} <= keys:
+        raise ConfigError(f"env={env_id!r} has no goal-based dict observation "
+                          "(needs observation, achieved_goal, desired_goal)")
+    env = env.unwrapped
+    env.reset(seed=seed)
+    return env
+
+
+def horizon(env_id: str) -> int:
+    """Steps per episode (the registered time limit: 50 for every Fetch task)."""
+    gym = _import_robotics()
+    return int(gym.spec(env_id).max_episode_steps)
+
+
+def state_size(env) -> int:
+    return int(mujoco.mj_stateSize(env.model, STATE_SPEC))
+
+
+def get_state(env, out: np.ndarray | None = None) -> np.ndarray:
+    """The full physics state (float64), `mj_getState(..., mjSTATE_FULLPHYSICS)`."""
+    if out is None:
+        out = np.empty(state_size(env), dtype=np.float64)
+    mujoco.mj_getState(env.model, env.data, out, STATE_SPEC)
+    return out
+
+
+def set_state(env, state: np.ndarray) -> None:
+    """Write a stored full physics state back and recompute derived quantities (`mj_forward`)."""
+    mujoco.mj_setState(env.model, env.data, np.asarray(state, dtype=np.float64), STATE_SPEC)
+    mujoco.mj_forward(env.model, env.data)
+
+
+def restart_from(env, state: np.ndarray, goal: np.ndarray | None = None) -> dict:
+    """Start a new episode from a stored state (DESIGN.md, "Start states").
+
+    `env.reset()` first, so the episode counter and the goal are fresh (`restart_goal="resample"`);
+    then the stored state is written. Pass `goal` to keep a stored goal (`"episode"`).
+    """
+    env.reset()
+    set_state(env, state)
+    if goal is not None:
+        env.goal = np.array(goal, dtype=np.float64)
+    return env._get_obs()
+
+
+def env_rng_state(env) -> dict:
+    return env.np_random.bit_generator.state
+
+
+def set_env_rng_state(env, state: dict) -> None:
+    env.np_random.bit_generator.state = state

@@ -1,0 +1,264 @@
+"""Table I of the paper from our runs: training episodes until a test-success threshold.
+
+`python -m acder_lite table --results results/` reads every `progress.csv` (with its `config.json`)
+under the results folder and prints, per method and task, the mean ± std over seeds of the first
+`episodes` value at which `test_success` reached the task's threshold, how many seeds reached it,
+and the paper's number beside it. `learning_curves` averages the same runs for the book's plots.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+TASKS = ("FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4")
+"""The paper's three tasks, in the column order of Table I."""
+
+PAPER_THRESHOLDS = {"FetchReach-v4": 1.0, "FetchPush-v4": 0.95, "FetchPickAndPlace-v4": 0.95}
+"""Test success rate each column of Table I counts episodes to (Reach 100%, Push and Pick&Place 95%)."""
+
+PAPER_TABLE_I: dict[str, dict[str, int | None]] = {
+    "her": {"FetchReach-v4": 2240, "FetchPush-v4": 11600, "FetchPickAndPlace-v4": 33600},
+    "her-icm": {"FetchReach-v4": 2400, "FetchPush-v4": 9800, "FetchPickAndPlace-v4": 29800},
+    "her-per": {"FetchReach-v4": 1440, "FetchPush-v4": 7800, "FetchPickAndPlace-v4": 17400},
+    "her-ebp": {"FetchReach-v4": None, "FetchPush-v4": 7200, "FetchPickAndPlace-v4": 17200},
+    "acder": {"FetchReach-v4": 400, "FetchPush-v4": 2200, "FetchPickAndPlace-v4": 5200},
+}
+"""Table I: episodes until the threshold, per method (our names) and task; None is the paper's '–'."""
+
+METHOD_LABELS = {
+    "ddpg": "DDPG", "her": "DDPG+HER", "her-icm": "DDPG+HER+ICM", "her-per": "DDPG+HER+PER",
+    "her-ebp": "DDPG+HER+EBP", "acder": "DDPG+ACDER",
+    "acder-no-curiosity": "ACDER w/o curiosity", "acder-no-goal-factor": "ACDER w/o goal factor",
+    "acder-no-start-states": "ACDER w/o start states",
+}
+"""How the paper names each method."""
+
+TASK_LABELS = {"FetchReach-v4": "Reach", "FetchPush-v4": "Push", "FetchPickAndPlace-v4": "Pick&Place",
+               "FetchSlide-v4": "Slide"}
+
+SUCCESS_TOL = 1e-9
+"""Slack when comparing a success rate with a threshold (a mean of 40 ones may print as 0.9999999)."""
+
+
+def _order(seq, canonical):
+    return sorted(seq, key=lambda x: (canonical.index(x) if x in canonical else len(canonical), x))
+
+
+def _num(s: str):
+    try:
+        return float(s)
+    except (TypeError, ValueError):
+        return s
+
+
+def read_progress(path: str | Path) -> list[dict]:
+    """The rows of a progress.csv, numeric fields as floats (empty fields stay '')."""
+    with open(path, newline="") as f:
+        return [{k: _num(v) for k, v in row.items()} for row in csv.DictReader(f)]
+
+
+def episodes_to_threshold(rows: list[dict], threshold: float) -> float | None:
+    """The first `episodes` value (in row order) at which `test_success` >= threshold; None if never."""
+    for row in rows:
+        s = row.get("test_success")
+        if isinstance(s, (int, float)) and not math.isnan(s) and s >= threshold - SUCCESS_TOL:
+            return float(row["episodes"])
+    return None
+
+
+def _budget(cfg: dict) -> float | None:
+    """Training episodes a run may use: epochs * cycles * episodes_per_cycle * workers."""
+    try:
+        return float(cfg["epochs"] * cfg["cycles"] * cfg["episodes_per_cycle"] * cfg["workers"])
+    except (KeyError, TypeError):
+        return None
+
+
+def load_runs(results_dir: str | Path) -> list[dict]:
+    """Every run under `results_dir` that has a progress.csv.
+
+    Each run is a dict: env, method, seed (from config.json's "config", else from the path
+    `<env>/<method>/seed<k>`), dir, rows (see `read_progress`), budget (planned training episodes;
+    the last `episodes` value if config.json lacks the fields), done (done.json present).
+    Sorted by (env, method, seed).
+    """
+    runs = []
+    for path in sorted(Path(results_dir).rglob("progress.csv")):
+        d = path.parent
+        cfg = {}
+        if (d / "config.json").exists():
+            with open(d / "config.json") as f:
+                cfg = json.load(f).get("config", {})
+        rows = [r for r in read_progress(path) if isinstance(r.get("episodes"), float)]
+        seed = cfg.get("seed")
+        if seed is None:
+            seed = int(d.name[4:]) if d.name.startswith("seed") and d.name[4:].isdigit() else d.name
+        budget = _budget(cfg)
+        if budget is None and rows:
+            budget = max(r["episodes"] for r in rows)
+        runs.append(dict(env=cfg.get("env", d.parent.parent.name), method=cfg.get("method", d.parent.name),
+                         seed=seed, dir=str(d), rows=rows, budget=budget,
+                         done=(d / "done.json").exists()))
+    runs.sort(key=lambda r: (r["env"], r["method"], str(r["seed"])))
+    return runs
+
+
+def summarize(runs: list[dict], thresholds: dict[str, float] = PAPER_THRESHOLDS) -> list[dict]:
+    """Per (method, task) with a threshold: episodes-to-threshold over seeds, beside the paper.
+
+    Each row: method, env, threshold, n (seeds), k (seeds that reached it), episodes (per seed,
+    None where never reached), mean and std (over the k seeds that reached it, std with ddof=1,
+    0 for one seed; None when k = 0), budget (largest planned budget among the seeds) and paper
+    (Table I's number, None if absent). Rows in Table I's order (methods, then tasks).
+    """
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in runs:
+        if r["env"] in thresholds:
+            groups.setdefault((r["method"], r["env"]), []).append(r)
+    methods = _order({m for m, _ in groups}, list(METHOD_LABELS))
+    envs = _order({e for _, e in groups}, list(TASKS))
+    out = []
+    for m in methods:
+        for e in envs:
+            if (m, e) not in groups:
+                continue
+            seeds = groups[(m, e)]
+            eps = [episodes_to_threshold(r["rows"], thresholds[e]) for r in seeds]
+            hit = np.array([x for x in eps if x is not None], dtype=float)
+            budgets = [r["budget"] for r in seeds if r["budget"] is not None]
+            out.append(dict(
+                method=m, env=e, threshold=thresholds[e], n=len(seeds), k=len(hit),
+                seeds=[r["seed"] for r in seeds], episodes=eps,
+                mean=float(hit.mean()) if len(hit) else None,
+                std=float(hit.std(ddof=1)) if len(hit) > 1 else (0.0 if len(hit) else None),
+                budget=max(budgets) if budgets else None,
+                paper=PAPER_TABLE_I.get(m, {}).get(e)))
+    return out
+
+
+def _int(x: float | None) -> str:
+    return "–" if x is None else f"{round(x):,}"
+
+
+def _cell(row: dict | None, paper: int | None, has_paper_row: bool) -> str:
+    tail = f" · paper {_int(paper)}" if has_paper_row else ""
+    if row is None:
+        return "–" if has_paper_row and paper is None else "no runs" + tail
+    if row["k"] == 0:
+        return f"not reached in {_int(row['budget'])} (0/{row['n']})" + tail
+    return f"{_int(row['mean'])} ± {_int(row['std'])} ({row['k']}/{row['n']})" + tail
+
+
+def _ratio(her: dict | None, acder: dict | None) -> str:
+    """HER's episodes over ACDER's; '> x' when HER never reached it (a lower bound from its budget)."""
+    if her is None or acder is None or acder["k"] == 0:
+        return "–"
+    if her["k"] == 0:
+        return f"> {her['budget'] / acder['mean']:.1f}" if her["budget"] else "–"
+    ratio = f"{her['mean'] / acder['mean']:.1f}"
+    if her["k"] < her["n"]:
+        ratio = "≥ " + ratio  # the seeds that never reached it would only raise HER's mean
+    return ratio
+
+
+def to_markdown(summary: list[dict]) -> str:
+    """A markdown Table I (ours beside the paper's) and the HER/ACDER ratio per task."""
+    if not summary:
+        return "_No runs with a paper threshold._\n"
+    by = {(r["method"], r["env"]): r for r in summary}
+    methods = _order({r["method"] for r in summary}, list(METHOD_LABELS))
+    envs = _order({r["env"] for r in summary}, list(TASKS))
+    thr = {r["env"]: r["threshold"] for r in summary}
+    head = [f"{TASK_LABELS.get(e, e)} ({thr[e]:.0%})" for e in envs]
+    lines = ["Training episodes until the test success rate first reaches the threshold: mean ± std "
+             "over the seeds that reached it (seeds reached / seeds run) · the paper's Table I.", "",
+             "| Method | " + " | ".join(head) + " |",
+             "|---|" + "---|" * len(envs)]
+    for m in methods:
+        cells = [_cell(by.get((m, e)), PAPER_TABLE_I.get(m, {}).get(e), m in PAPER_TABLE_I) for e in envs]
+        lines.append(f"| {METHOD_LABELS.get(m, m)} (`{m}`) | " + " | ".join(cells) + " |")
+    budgets = [f"{TASK_LABELS.get(e, e)} {_int(max((r['budget'] for r in summary if r['env'] == e and r['budget']), default=None))}"
+               for e in envs]
+    lines += ["", "Budget (training episodes per run, largest over methods): " + ", ".join(budgets) + ".",
+              "", "| HER / ACDER episodes | " + " | ".join(TASK_LABELS.get(e, e) for e in envs) + " |",
+              "|---|" + "---|" * len(envs)]
+    ours = [_ratio(by.get(("her", e)), by.get(("acder", e))) for e in envs]
+    paper = []
+    for e in envs:
+        h, a = PAPER_TABLE_I["her"].get(e), PAPER_TABLE_I["acder"].get(e)
+        paper.append(f"{h / a:.1f}" if h and a else "–")
+    lines += ["| ours | " + " | ".join(ours) + " |", "| paper | " + " | ".join(paper) + " |"]
+    return "\n".join(lines) + "\n"
+
+
+def learning_curves(runs: list[dict]) -> dict[tuple[str, str], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """Test success per (env, method) on one episodes axis: (episodes, mean, std, n).
+
+    The axis is the union of the seeds' evaluation points; each seed is linearly interpolated
+    between its own evaluations and left out (n drops) outside them, except that a finished run
+    that stopped early (done.json, last evaluation before its budget) keeps its last value up to
+    its budget. std is over the seeds present (ddof=0).
+    """
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in runs:
+        if r["rows"]:
+            groups.setdefault((r["env"], r["method"]), []).append(r)
+    out = {}
+    for key, seeds in sorted(groups.items()):
+        curves = []
+        for r in seeds:
+            x = np.array([row["episodes"] for row in r["rows"]], dtype=float)
+            y = np.array([row["test_success"] if isinstance(row.get("test_success"), float) else np.nan
+                          for row in r["rows"]], dtype=float)
+            keep = ~np.isnan(y)
+            x, y = x[keep], y[keep]
+            order = np.argsort(x, kind="stable")
+            x, y = x[order], y[order]
+            if len(x) and r.get("done") and r.get("budget") and x[-1] < r["budget"]:
+                x, y = np.append(x, r["budget"]), np.append(y, y[-1])
+            if len(x):
+                curves.append((x, y))
+        if not curves:
+            continue
+        grid = np.unique(np.concatenate([x for x, _ in curves]))
+        ys = np.full((len(curves), len(grid)), np.nan)
+        for i, (x, y) in enumerate(curves):
+            inside = (grid >= x[0]) & (grid <= x[-1])
+            ys[i, inside] = np.interp(grid[inside], x, y)
+        n = (~np.isnan(ys)).sum(axis=0)
+        mean = np.nansum(ys, axis=0) / n
+        std = np.sqrt(np.nansum((ys - mean) ** 2, axis=0) / n)
+        out[key] = (grid, mean, std, n)
+    return out
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of `python -m acder_lite table`."""
+    parser.add_argument("--results", default="results", help="root of <env>/<method>/seed<k> (default: results)")
+    parser.add_argument("--format", choices=("markdown", "json"), default="markdown",
+                        help="markdown (default) or the summary rows as JSON")
+
+
+def run(args) -> int:
+    """Print Table I from the runs under --results; 2 with a one-line error if there are none."""
+    root = Path(args.results)
+    if not root.is_dir():
+        print(f"error: table: results folder {str(root)!r} does not exist", file=sys.stderr)
+        return 2
+    runs = load_runs(root)
+    if not runs:
+        print(f"error: table: no progress.csv under {str(root)!r}; allowed: a folder of "
+              "<env>/<method>/seed<k> runs written by train or sweep", file=sys.stderr)
+        return 2
+    summary = summarize(runs)
+    if args.format == "json":
+        print(json.dumps(summary, indent=2))
+    else:
+        print(to_markdown(summary), end="")
+    return 0

@@ -1,0 +1,437 @@
+"""The one trainer: rollouts, storage, HER sampling, rewards, DDPG and curiosity updates.
+
+The paper's protocol in one process (DESIGN.md): W envs stepped together, 2 episodes per worker
+per cycle, 40 updates per cycle on minibatches of 256*W, 50 cycles an epoch, 10 deterministic test
+episodes per worker after each epoch. A method (`Config.method`) only flips switches here.
+"""
+from __future__ import annotations
+
+import os
+import platform
+import sys
+import time
+
+import numpy as np
+import torch
+
+from . import envs as E
+from .buffer import EpisodeBuffer
+from .config import Config
+from .core import Actor
+from .curiosity import ICM, SICM
+from .ddpg import DDPG
+from .her import sample_her_transitions
+from .io import save_torch, write_csv, write_json
+from .normalizer import Normalizer
+from .rewards import goal_oriented_factor
+from .start_states import StartStateSelector
+
+BASE_COLUMNS = ["epoch", "cycle", "episodes", "env_steps", "test_success", "train_success",
+                "critic_loss", "actor_loss", "q_mean", "wall_s"]
+"""Columns every method writes to progress.csv; methods add their diagnostics after these."""
+
+
+def versions() -> dict:
+    import gymnasium
+    import mujoco
+    return dict(python=platform.python_version(), numpy=np.__version__, torch=torch.__version__,
+                mujoco=mujoco.__version__, gymnasium=gymnasium.__version__,
+                gymnasium_robotics=_version("gymnasium-robotics"), acder_lite=_version("acder-lite"))
+
+
+def _version(dist: str) -> str:
+    from importlib import metadata
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return "source"
+
+
+class Policy:
+    """A trained actor with its normalisers: what `eval` and the book need to act."""
+
+    def __init__(self, actor: Actor, o_norm: Normalizer, g_norm: Normalizer, clip_obs: float):
+        self.actor, self.o_norm, self.g_norm, self.clip_obs = actor, o_norm, g_norm, clip_obs
+
+    def inputs(self, o: np.ndarray, g: np.ndarray) -> torch.Tensor:
+        c = self.clip_obs
+        x = np.concatenate([self.o_norm.normalize(np.clip(o, -c, c)),
+                            self.g_norm.normalize(np.clip(g, -c, c))], axis=-1)
+        return torch.as_tensor(x, dtype=torch.float32)
+
+    @torch.no_grad()
+    def __call__(self, o: np.ndarray, g: np.ndarray) -> np.ndarray:
+        return self.actor(self.inputs(o, g)).numpy()
+
+    def state_dict(self, env: str, method: str) -> dict:
+        a = self.actor
+        return dict(env=env, method=method, actor=a.state_dict(), o_norm=self.o_norm.state_dict(),
+                    g_norm=self.g_norm.state_dict(), clip_obs=self.clip_obs,
+                    shape=dict(in_dim=a.net[0].in_features, act_dim=a.net[-2].out_features,
+                               hidden=a.net[0].out_features, layers=(len(a.net) - 2) // 2, max_u=a.max_u),
+                    norm=dict(o=self.o_norm.size, g=self.g_norm.size, eps=self.o_norm.eps, clip=self.o_norm.clip))
+
+    @classmethod
+    def from_state_dict(cls, d: dict) -> "Policy":
+        s, n = d["shape"], d["norm"]
+        actor = Actor(s["in_dim"], s["act_dim"], s["hidden"], s["layers"], s["max_u"])
+        actor.load_state_dict(d["actor"])
+        o_norm, g_norm = Normalizer(n["o"], n["eps"], n["clip"]), Normalizer(n["g"], n["eps"], n["clip"])
+        o_norm.load_state_dict(d["o_norm"])
+        g_norm.load_state_dict(d["g_norm"])
+        return cls(actor, o_norm, g_norm, d["clip_obs"])
+
+
+def run_episodes(envs: list, act, T: int, rng=None, starts=None) -> dict:
+    """Roll out one episode in each env, stepping them together with one batched `act(o, g)` call.
+
+    `starts(i)` may return a stored start (dict with state, goal or None) for env i. Returns arrays
+    with a leading env axis: o, ag, state (T+1 steps), g, u (T steps), success (last step), novel.
+    """
+    W = len(envs)
+    first = envs[0]._get_obs()
+    od, gd, sd = first["observation"].size, first["desired_goal"].size, E.state_size(envs[0])
+    ad = envs[0].action_space.shape[0]
+    o = np.empty((W, T + 1, od), np.float32)
+    ag = np.empty((W, T + 1, gd), np.float32)
+    state = np.empty((W, T + 1, sd), np.float64)
+    g = np.empty((W, T, gd), np.float32)
+    u = np.empty((W, T, ad), np.float32)
+    success = np.zeros(W, bool)
+    novel = np.zeros(W, bool)
+    goal = np.empty((W, gd), np.float64)
+    for i, env in enumerate(envs):
+        start = starts(i) if starts is not None else None
+        if start is None:
+            obs, _ = env.reset()
+        else:
+            obs = E.restart_from(env, start["state"], start.get("goal"))
+            novel[i] = True
+        o[i, 0], ag[i, 0], goal[i] = obs["observation"], obs["achieved_goal"], obs["desired_goal"]
+        E.get_state(env, state[i, 0])
+    for t in range(T):
+        a = act(o[:, t], goal)
+        u[:, t], g[:, t] = a, goal
+        for i, env in enumerate(envs):
+            obs, _, _, _, info = env.step(a[i])
+            o[i, t + 1], ag[i, t + 1] = obs["observation"], obs["achieved_goal"]
+            E.get_state(env, state[i, t + 1])
+            if t == T - 1:
+                success[i] = bool(info["is_success"])
+    return dict(o=o, ag=ag, state=state, g=g, u=u, success=success, novel=novel)
+
+
+class Trainer:
+    def __init__(self, cfg: Config, out_dir: str | None = None, command: list[str] | None = None):
+        self.cfg = cfg.resolve()
+        self.out_dir, self.command = out_dir, command or sys.argv
+        sw = cfg.switches
+        torch.set_num_threads(cfg.threads)
+        torch.manual_seed(cfg.seed)
+        self.rng = np.random.default_rng(cfg.seed)
+        self.envs = [E.make_env(cfg.env, seed=cfg.seed * 1000 + i) for i in range(cfg.workers)]
+        self.test_envs = [E.make_env(cfg.env, seed=cfg.seed * 1000 + 500 + i) for i in range(cfg.workers)]
+        env0 = self.envs[0]
+        obs = env0._get_obs()
+        self.T = E.horizon(cfg.env)
+        self.dt = float(env0.dt)
+        self.reward_fn = env0.compute_reward
+        self.max_u = float(env0.action_space.high[0])
+        dims = dict(o=obs["observation"].size, g=obs["desired_goal"].size,
+                    u=env0.action_space.shape[0], state=E.state_size(env0))
+        self.dims = dims
+        self.buffer = EpisodeBuffer(cfg.buffer_size, self.T, dims)
+        self.o_norm = Normalizer(dims["o"], cfg.norm_eps, cfg.norm_clip)
+        self.g_norm = Normalizer(dims["g"], cfg.norm_eps, cfg.norm_clip)
+        s_dim = dims["o"] + dims["g"]
+        self.agent = DDPG(s_dim, dims["u"], cfg, self.max_u)
+        self.policy = Policy(self.agent.actor, self.o_norm, self.g_norm, cfg.clip_obs)
+        self.curiosity = None
+        if sw["curiosity"] == "sicm":
+            self.curiosity = SICM(s_dim, dims["u"], cfg.sicm_hidden, cfg.sicm_lr)
+        elif sw["curiosity"] == "icm":
+            self.curiosity = ICM(s_dim, dims["u"], cfg.icm_feature_dim, cfg.sicm_hidden, cfg.icm_beta, cfg.sicm_lr)
+        self.selector = StartStateSelector(cfg.pool_size, cfg.alpha0) if sw["start_states"] else None
+        self.per = self.ebp = None
+        if sw["priority"] == "per":
+            from .priority import PrioritizedReplay
+            self.per = PrioritizedReplay(self.buffer.size, self.T, cfg.per_alpha, cfg.per_eps)
+        elif sw["priority"] == "ebp":
+            from .priority import EnergyPrioritizer
+            self.ebp = EnergyPrioritizer(self.buffer.size)
+        # Target clip (DESIGN.md): rewards lambda*r_her + r_i lie in [-lambda_max, r_i_max].
+        lam_max = 1.5 if sw["goal_factor"] else 1.0
+        r_i_max = cfg.eta if sw["curiosity"] != "none" else 0.0
+        self.clip_return = (-lam_max / (1 - cfg.gamma), r_i_max / (1 - cfg.gamma))
+        # progress
+        self.cycle = 0               # cycles done in all
+        self.episodes = 0            # training episodes (all workers)
+        self.env_steps = 0
+        self.wall = 0.0
+        self.success_rate = 0.0      # latest test success (drives Eq. 9)
+        self.rows: list[dict] = []
+        self.done = False
+        self._reset_diag()
+
+    # ----- columns and diagnostics
+    @property
+    def columns(self) -> list[str]:
+        extra = []
+        if self.curiosity is not None:
+            extra += ["r_int_mean", "curiosity_loss"]
+        if self.cfg.switches["goal_factor"]:
+            extra += ["lambda_mean"]
+        if self.selector is not None:
+            extra += ["alpha", "novel_start_share", "pool_size"]
+        if self.per is not None:
+            extra += ["per_beta"]
+        if self.ebp is not None:
+            extra += ["energy_mean"]
+        return BASE_COLUMNS + extra
+
+    def _reset_diag(self):
+        self.diag = dict(n_upd=0, critic_loss=0.0, actor_loss=0.0, q_mean=0.0, r_int=0.0, cur_loss=0.0,
+                         lam=0.0, n_ep=0, n_novel=0, n_succ=0, energy=0.0)
+
+    # ----- acting
+    def explore_act(self, o: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """Baselines' exploration: pi + N(0, noise_eps) clipped, then a uniform random action with
+        probability random_eps. All random numbers are drawn every call (stable random stream)."""
+        u = self.policy(o, g)
+        noise = self.cfg.noise_eps * self.max_u * self.rng.standard_normal(u.shape)
+        u = np.clip(u + noise, -self.max_u, self.max_u)
+        rand = self.rng.uniform(-self.max_u, self.max_u, u.shape)
+        pick = self.rng.random(u.shape[0]) < self.cfg.random_eps
+        return np.where(pick[:, None], rand, u).astype(np.float32)
+
+    def _start(self, i: int):
+        cand = self.selector.draw(self.rng)
+        if cand is None:
+            return None
+        return dict(state=cand["state"], goal=cand["goal"] if self.cfg.restart_goal == "episode" else None)
+
+    # ----- one cycle
+    def collect(self) -> dict:
+        ep = run_episodes(self.envs, self.explore_act, self.T, starts=self._start if self.selector else None)
+        slots = self.buffer.store(ep)
+        if self.per is not None:
+            self.per.add_episodes(slots)
+        if self.ebp is not None:
+            from .priority import trajectory_energy
+            c = self.cfg
+            energy = trajectory_energy(ep["ag"], self.dt, c.ebp_w_potential, c.ebp_w_kinetic, c.ebp_clip_energy)
+            self.ebp.add_episodes(slots, energy)
+            self.diag["energy"] += float(energy.sum())
+        self._update_normalizer(ep)
+        W = len(self.envs)
+        self.episodes += W
+        self.env_steps += W * self.T
+        d = self.diag
+        d["n_ep"] += W
+        d["n_novel"] += int(ep["novel"].sum())
+        d["n_succ"] += int(ep["success"].sum())
+        return ep
+
+    def _update_normalizer(self, ep: dict) -> None:
+        """Baselines: statistics from HER-relabelled samples of the episodes just collected."""
+        n = ep["o"].shape[0]
+        tr = sample_her_transitions(ep, n * self.T, self.cfg.future_p, self.reward_fn, self.rng)
+        c = self.cfg.clip_obs
+        self.o_norm.update(np.clip(tr["o"], -c, c))
+        self.g_norm.update(np.clip(tr["g"], -c, c))
+
+    def sample_batch(self) -> dict:
+        B = self.cfg.batch_size * self.cfg.workers
+        ep_idx = t_idx = weights = None
+        if self.per is not None:
+            ep_idx, t_idx, weights = self.per.sample(self.rng, B, self.per_beta)
+        elif self.ebp is not None:
+            ep_idx = self.ebp.sample_episodes(self.rng, B)
+        batch = sample_her_transitions(self.buffer.arrays(), B, self.cfg.future_p, self.reward_fn,
+                                       self.rng, ep_idx, t_idx)
+        batch["weights"] = weights
+        return batch
+
+    @property
+    def per_beta(self) -> float:
+        from .priority import per_beta
+        total = self.cfg.epochs * self.cfg.cycles
+        return per_beta(self.cycle / max(1, total), self.cfg.per_beta0)
+
+    def rewards(self, batch: dict, tb: dict) -> torch.Tensor:
+        """r = lambda * r_her + r_i (Eq. 4-6), with lambda = 1 on rows HER did not relabel."""
+        r = batch["r"].astype(np.float32)
+        if self.cfg.switches["goal_factor"]:
+            lam = np.ones_like(r)
+            h = batch["her"]
+            lam[h] = goal_oriented_factor(batch["o"][h, :3], batch["g"][h], batch["u"][h])
+            r = lam * r
+            self.diag["lam"] += float(lam.mean())
+        r_t = torch.from_numpy(r)
+        if self.curiosity is not None:
+            r_int, loss = self.curiosity.step(tb["x"], tb["u"], tb["x2"], self.cfg.eta)
+            r_t = r_t + r_int
+            self.diag["r_int"] += float(r_int.mean())
+            self.diag["cur_loss"] += float(loss)
+            if self.selector is not None:
+                self.selector.offer(batch, r_int.numpy(), self.buffer)
+        return r_t
+
+    def update_step(self) -> dict:
+        batch = self.sample_batch()
+        x = self.policy.inputs(batch["o"], batch["g"])
+        x2 = self.policy.inputs(batch["o2"], batch["g"])
+        tb = dict(x=x, x2=x2, u=torch.from_numpy(np.ascontiguousarray(batch["u"])))
+        tb["r"] = self.rewards(batch, tb)
+        w = None if batch["weights"] is None else torch.from_numpy(batch["weights"])
+        out = self.agent.update(tb, self.clip_return, w)
+        if self.per is not None:
+            self.per.update(batch["ep"], batch["t"], out["td"].numpy())
+        d = self.diag
+        d["n_upd"] += 1
+        d["critic_loss"] += float(out["critic_loss"])
+        d["actor_loss"] += float(out["actor_loss"])
+        return out
+
+    def train_cycle(self) -> None:
+        for _ in range(self.cfg.episodes_per_cycle):
+            self.collect()
+        for _ in range(self.cfg.updates_per_cycle):
+            self.update_step()
+        self.agent.update_targets()
+        self.cycle += 1
+
+    @torch.no_grad()
+    def evaluate(self) -> float:
+        """Mean is_success at the last step of test_episodes deterministic episodes per worker."""
+        succ, q = [], []
+        for _ in range(self.cfg.test_episodes):
+            ep = run_episodes(self.test_envs, self.policy, self.T)
+            succ.append(ep["success"])
+            x = self.policy.inputs(ep["o"][:, 0], ep["g"][:, 0])
+            q.append(self.agent.critic(x, self.agent.actor(x)).numpy())
+        self.diag["q_mean"] = float(np.mean(np.concatenate(q))) if q else float("nan")
+        return float(np.mean(np.concatenate(succ))) if succ else float("nan")
+
+    # ----- the run
+    def log_row(self, wall_start: float) -> dict:
+        self.success_rate = self.evaluate()
+        if self.selector is not None:
+            self.selector.set_success_rate(self.success_rate)
+        d, n = self.diag, max(1, self.diag["n_upd"])
+        row = dict(epoch=self.cycle / self.cfg.cycles, cycle=self.cycle, episodes=self.episodes,
+                   env_steps=self.env_steps, test_success=self.success_rate,
+                   train_success=d["n_succ"] / max(1, d["n_ep"]),
+                   critic_loss=d["critic_loss"] / n, actor_loss=d["actor_loss"] / n, q_mean=d["q_mean"],
+                   wall_s=self.wall + time.perf_counter() - wall_start,
+                   r_int_mean=d["r_int"] / n, curiosity_loss=d["cur_loss"] / n, lambda_mean=d["lam"] / n,
+                   novel_start_share=d["n_novel"] / max(1, d["n_ep"]),
+                   energy_mean=d["energy"] / max(1, d["n_ep"]))
+        if self.selector is not None:
+            row.update(alpha=self.selector.alpha, pool_size=len(self.selector.pool))
+        if self.per is not None:
+            row["per_beta"] = self.per_beta
+        self.rows.append(row)
+        self._reset_diag()
+        if self.out_dir:
+            write_csv(os.path.join(self.out_dir, "progress.csv"), self.rows, self.columns)
+        return row
+
+    def should_stop(self) -> bool:
+        c = self.cfg
+        if c.stop_after_success <= 0 or len(self.rows) < c.stop_patience:
+            return False
+        return all(r["test_success"] >= c.stop_after_success for r in self.rows[-c.stop_patience:])
+
+    def train(self, progress: bool = True) -> list[dict]:
+        """Train until cfg.epochs (or the early stop), checkpointing after every epoch.
+
+        On KeyboardInterrupt the last end-of-epoch checkpoint stays on disk (it is written
+        atomically), so `--resume` continues from there; the interrupt is re-raised.
+        """
+        from tqdm import tqdm
+        c = self.cfg
+        total = c.epochs * c.cycles
+        if self.out_dir:
+            self.write_config()
+        bar = tqdm(total=total, initial=self.cycle, disable=not progress, unit="cycle",
+                   dynamic_ncols=True, file=sys.stderr)
+        t0 = time.perf_counter()
+        try:
+            while self.cycle < total and not self.done:
+                self.train_cycle()
+                bar.update(1)
+                end_of_epoch = self.cycle % c.cycles == 0
+                if end_of_epoch or (c.eval_every_cycles and self.cycle % c.eval_every_cycles == 0):
+                    row = self.log_row(t0)
+                    bar.set_postfix(success=f"{row['test_success']:.2f}", episodes=self.episodes)
+                    if self.should_stop():
+                        self.done = True
+                if end_of_epoch or self.done:
+                    self.wall += time.perf_counter() - t0
+                    t0 = time.perf_counter()
+                    if self.out_dir:
+                        self.save(os.path.join(self.out_dir, "checkpoint.pt"))
+            self.done = True
+        finally:
+            bar.close()
+        if self.out_dir:
+            write_json(os.path.join(self.out_dir, "done.json"),
+                       dict(epochs=self.cycle / c.cycles, episodes=self.episodes,
+                            stopped_early=self.cycle < total, final_test_success=self.success_rate,
+                            wall_s=self.wall))
+        return self.rows
+
+    # ----- files
+    def write_config(self) -> None:
+        write_json(os.path.join(self.out_dir, "config.json"),
+                   dict(config=self.cfg.to_dict(), command=" ".join(self.command), seed=self.cfg.seed,
+                        versions=versions(), threads=torch.get_num_threads()))
+
+    def policy_state(self) -> dict:
+        return self.policy.state_dict(self.cfg.env, self.cfg.method)
+
+    def state_dict(self) -> dict:
+        """Everything a resumed run needs to continue with the same numbers."""
+        return dict(
+            config=self.cfg.to_dict(), policy=self.policy_state(), agent=self.agent.state_dict(),
+            o_norm=self.o_norm.state_dict(), g_norm=self.g_norm.state_dict(),
+            curiosity=None if self.curiosity is None else self.curiosity.state_dict(),
+            curiosity_opt=None if self.curiosity is None else self.curiosity.opt.state_dict(),
+            selector=None if self.selector is None else self.selector.state_dict(),
+            per=None if self.per is None else self.per.state_dict(),
+            ebp=None if self.ebp is None else self.ebp.state_dict(),
+            buffer=self.buffer.state_dict(),
+            progress=dict(cycle=self.cycle, episodes=self.episodes, env_steps=self.env_steps, wall=self.wall,
+                          success_rate=self.success_rate, rows=self.rows, done=self.done),
+            rng=dict(numpy=self.rng.bit_generator.state, torch=torch.get_rng_state(),
+                     envs=[E.env_rng_state(e) for e in self.envs],
+                     test_envs=[E.env_rng_state(e) for e in self.test_envs]),
+            versions=versions(),
+        )
+
+    def save(self, path: str) -> None:
+        save_torch(path, self.state_dict())
+        save_torch(os.path.join(os.path.dirname(path), "policy.pt"), dict(policy=self.policy_state()))
+
+    def load_state_dict(self, d: dict) -> None:
+        self.agent.load_state_dict(d["agent"])
+        self.o_norm.load_state_dict(d["o_norm"])
+        self.g_norm.load_state_dict(d["g_norm"])
+        if self.curiosity is not None:
+            self.curiosity.load_state_dict(d["curiosity"])
+            self.curiosity.opt.load_state_dict(d["curiosity_opt"])
+        for name in ("selector", "per", "ebp"):
+            if getattr(self, name) is not None:
+                getattr(self, name).load_state_dict(d[name])
+        self.buffer.load_state_dict(d["buffer"])
+        p = d["progress"]
+        self.cycle, self.episodes, self.env_steps = p["cycle"], p["episodes"], p["env_steps"]
+        self.wall, self.success_rate, self.rows, self.done = p["wall"], p["success_rate"], p["rows"], p["done"]
+        r = d["rng"]
+        self.rng.bit_generator.state = r["numpy"]
+        torch.set_rng_state(r["torch"])
+        for e, s in zip(self.envs, r["envs"]):
+            E.set_env_rng_state(e, s)
+        for e, s in zip(self.test_envs, r["test_envs"]):
+            E.set_env_rng_state(e, s)

@@ -1,0 +1,169 @@
+"""The sweep: planning (run / resume / skip), argument errors, and one tiny real interrupted sweep."""
+import argparse
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from acder_lite import sweep as S
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def parse(argv):
+    p = argparse.ArgumentParser()
+    S.add_arguments(p)
+    return p.parse_args(argv)
+
+
+def touch(d: Path, *names):
+    d.mkdir(parents=True, exist_ok=True)
+    for n in names:
+        (d / n).write_text("x")
+
+
+@pytest.fixture
+def grid(tmp_path):
+    """seed0 complete, seed1 interrupted (checkpoint, no done.json), seed2 new, seed3 died before a checkpoint."""
+    base = tmp_path / "FetchReach-v4" / "her"
+    touch(base / "seed0", "progress.csv", "config.json", "checkpoint.pt", "done.json")
+    touch(base / "seed1", "progress.csv", "config.json", "checkpoint.pt")
+    touch(base / "seed3", "progress.csv", "config.json", "train.log")
+    return tmp_path
+
+
+def test_plan(grid):
+    cells = S.plan(["FetchReach-v4"], ["her"], [0, 1, 2, 3], grid)
+    assert [(c.seed, c.action) for c in cells] == [(0, "skip"), (1, "resume"), (2, "run"), (3, "run")]
+    assert cells[1].out == grid / "FetchReach-v4" / "her" / "seed1"
+    assert "progress.csv" in cells[3].note
+    S._set_aside_stale(cells[3].out)  # what a real start does first, so train accepts the folder
+    names = sorted(p.name for p in cells[3].out.iterdir())
+    assert names[-1] == "train.log" and all(n.endswith(".stale") for n in names[:-1]) and len(names) == 3
+
+
+def test_plan_leaves_a_running_folder_alone(grid):
+    base = grid / "FetchReach-v4" / "her"
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)", "acder_lite"])
+    try:
+        touch(base / "seed4", "checkpoint.pt")
+        (base / "seed4" / S.RUNNING_FILE).write_text(f"{child.pid}\n")
+        touch(base / "seed5", "checkpoint.pt")
+        (base / "seed5" / S.RUNNING_FILE).write_text("999999999\n")  # stale: no such process
+        cells = S.plan(["FetchReach-v4"], ["her"], [4, 5], grid)
+        assert [(c.action, c.note) for c in cells] == [
+            ("skip", f"running elsewhere, pid {child.pid}"), ("resume", "checkpoint.pt found")]
+    finally:
+        child.kill()
+        child.wait()
+
+
+def test_plan_ebp_needs_an_object(tmp_path):
+    cells = S.plan(["FetchReach-v4", "FetchPush-v4"], ["her-ebp"], [0], tmp_path)
+    assert [(c.env, c.action) for c in cells] == [("FetchReach-v4", "skip"), ("FetchPush-v4", "run")]
+    assert "object" in cells[0].note
+
+
+def test_dry_run(grid, capsys):
+    args = parse(["--envs", "FetchReach-v4", "--methods", "her", "her-ebp", "--seeds", "0", "1", "2",
+                  "--results", str(grid), "--jobs", "2", "--dry-run"])
+    assert S.run(args) == 0
+    out = capsys.readouterr().out.splitlines()
+    actions = [line.split()[:2] for line in out[:-1]]
+    assert actions == [["skip", "FetchReach-v4/her/seed0"], ["resume", "FetchReach-v4/her/seed1"],
+                       ["run", "FetchReach-v4/her/seed2"]] + [["skip", f"FetchReach-v4/her-ebp/seed{k}"]
+                                                             for k in range(3)]
+    assert "1 to run, 1 to resume, 4 to skip" in out[-1]
+    assert not (grid / "FetchReach-v4" / "her" / "seed2").exists()  # a dry run creates nothing
+
+
+def test_train_command(grid):
+    args = parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "0", "--results", str(grid),
+                  "--jobs", "1", "--epochs", "3", "--eval-every-cycles", "5", "--train-args=--cycles 2 --quiet"])
+    assert S.check_args(args) is None
+    assert args.threads == max(1, (os.cpu_count() or 1) // 1)
+    fresh, resume = S.plan(["FetchReach-v4"], ["her"], [2, 1], grid)
+    cmd = S.train_command(fresh, args)
+    assert cmd[:4] == [sys.executable, "-m", "acder_lite", "train"]
+    assert cmd[cmd.index("--out") + 1] == str(fresh.out) and "--resume" not in cmd
+    assert cmd[cmd.index("--epochs") + 1] == "3" and cmd[cmd.index("--eval-every-cycles") + 1] == "5"
+    assert cmd[-3:] == ["--cycles", "2", "--quiet"] and "--workers" not in cmd
+    cmd = S.train_command(resume, args)
+    assert cmd[cmd.index("--resume") + 1] == str(resume.out) and "--out" not in cmd
+
+
+@pytest.mark.parametrize("argv, msg", [
+    (["--envs", "FetchFly-v4", "--methods", "her"], "unknown env 'FetchFly-v4'"),
+    (["--envs", "FetchReach-v4", "--methods", "dqn"], "unknown method 'dqn'"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--jobs", "0"], "--jobs=0"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--threads", "0"], "--threads=0"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--epochs", "0"], "--epochs=0"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--stop-after-success", "2"], "--stop-after-success=2"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--cycles '2"], "--train-args"),
+])
+def test_argument_errors(tmp_path, capsys, argv, msg):
+    args = parse(argv + ["--seeds", "0", "--results", str(tmp_path), "--dry-run"])
+    assert S.run(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and msg in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_negative_seed(tmp_path, capsys):
+    assert S.run(parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "-1", "--dry-run"])) == 2
+    assert "seeds" in capsys.readouterr().err
+
+
+def _wait_for(pred, proc, timeout):
+    t0 = time.monotonic()
+    while not pred():
+        assert proc.poll() is None, proc.stdout.read()
+        assert time.monotonic() - t0 < timeout, "timed out"
+        time.sleep(0.05)
+
+
+def test_real_sweep_interrupt_and_restart(tmp_path):
+    """Two tiny runs, one at a time: Ctrl-C during the second, then the same command finishes it."""
+    cli = pytest.importorskip("acder_lite.cli")
+    if "train" not in cli.build_parser().format_help():
+        pytest.skip("no train command yet")
+    results = tmp_path / "results"
+    cmd = [sys.executable, "-m", "acder_lite", "sweep", "--envs", "FetchReach-v4", "--methods", "her",
+           "--seeds", "0", "1", "--results", str(results), "--jobs", "1", "--threads", "1",
+           "--epochs", "20", "--workers", "1",
+           "--train-args=--cycles 2 --updates-per-cycle 2 --test-episodes 1 --batch-size 16 --hidden 16 "
+           "--buffer-size 5000 --quiet"]
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    run0, run1 = results / "FetchReach-v4" / "her" / "seed0", results / "FetchReach-v4" / "her" / "seed1"
+
+    proc = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        _wait_for(lambda: (run1 / "checkpoint.pt").exists(), proc, 50)
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, out
+    assert "finish FetchReach-v4/her/seed0: done" in out
+    assert "finish FetchReach-v4/her/seed1: interrupted" in out
+    assert (run0 / "done.json").exists() and not (run1 / "done.json").exists()
+    assert not (run0 / S.RUNNING_FILE).exists() and not (run1 / S.RUNNING_FILE).exists()
+    before = {p.name: p.stat().st_mtime_ns for p in run0.iterdir()}
+
+    out = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=40).stdout
+    assert "skip   FetchReach-v4/her/seed0 (already complete)" in out
+    assert "start  FetchReach-v4/her/seed1 (resume)" in out
+    assert "finish FetchReach-v4/her/seed1: done" in out
+    assert {p.name: p.stat().st_mtime_ns for p in run0.iterdir()} == before  # the finished run is untouched
+    assert not (run1 / S.RUNNING_FILE).exists()
+    starts = [line for line in (run1 / "train.log").read_text().splitlines() if line.startswith("# ")]
+    assert len(starts) == 2 and "--out" in starts[0] and "--resume" in starts[1]
+    with open(run1 / "progress.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 20 and float(rows[-1]["episodes"]) == 20 * 2 * 2  # one row per epoch

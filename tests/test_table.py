@@ -1,0 +1,132 @@
+"""Table I from synthetic runs with known crossing points (no training)."""
+import argparse
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from acder_lite import table as T
+
+
+def make_run(root, env, method, seed, points, *, epochs=5, cycles=50, workers=4, config=True, done=False):
+    """Write results/<env>/<method>/seed<k>/{progress.csv,config.json}; points = [(episodes, success)]."""
+    d = root / env / method / f"seed{seed}"
+    d.mkdir(parents=True)
+    with open(d / "progress.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["epoch", "cycle", "episodes", "env_steps", "test_success", "wall_s"])
+        for ep, s in points:
+            cyc = ep / (2 * workers)
+            w.writerow([cyc / cycles, int(cyc), ep, ep * 50, s, ep * 0.1])
+    if config:
+        cfg = dict(env=env, method=method, seed=seed, epochs=epochs, cycles=cycles,
+                   episodes_per_cycle=2, workers=workers)
+        (d / "config.json").write_text(json.dumps(dict(config=cfg, command="x", versions={})))
+    if done:
+        (d / "done.json").write_text("{}")
+    return d
+
+
+@pytest.fixture
+def results(tmp_path):
+    R = "FetchReach-v4"
+    # her on Reach: seed 0 evaluated every 200 episodes, seed 1 every 40 (unequal grids), seed 2 never.
+    make_run(tmp_path, R, "her", 0, [(200, 0.1), (400, 0.5), (600, 1.0), (800, 0.9), (1000, 1.0)])
+    make_run(tmp_path, R, "her", 1, [(40 * i, min(1.0, 0.04 * i)) for i in range(1, 51)])  # 1.0 at i=25
+    make_run(tmp_path, R, "her", 2, [(200 * i, 0.975) for i in range(1, 11)])
+    make_run(tmp_path, R, "acder", 0, [(200, 0.9999999999), (400, 1.0)])  # float noise counts as 1.0
+    make_run(tmp_path, R, "acder", 1, [(200, 0.5), (400, 1.0)])
+    make_run(tmp_path, "FetchPush-v4", "her", 0, [(1000, 0.2), (2000, 0.5)])
+    make_run(tmp_path, "FetchPush-v4", "acder", 0, [(500, 0.9), (1000, 0.96)], config=False)
+    make_run(tmp_path, "FetchSlide-v4", "her", 0, [(400, 0.3)])  # no paper threshold
+    return tmp_path
+
+
+def test_episodes_to_threshold():
+    rows = [dict(episodes=40.0, test_success=0.5), dict(episodes=80.0, test_success=0.95),
+            dict(episodes=120.0, test_success=1.0)]
+    assert T.episodes_to_threshold(rows, 0.95) == 80.0
+    assert T.episodes_to_threshold(rows, 1.0) == 120.0
+    assert T.episodes_to_threshold(rows[:2], 1.0) is None
+    assert T.episodes_to_threshold([], 0.5) is None
+
+
+def test_load_runs(results):
+    runs = T.load_runs(results)
+    assert len(runs) == 8
+    by = {(r["env"], r["method"], r["seed"]): r for r in runs}
+    assert by[("FetchReach-v4", "her", 1)]["budget"] == 5 * 50 * 2 * 4
+    assert len(by[("FetchReach-v4", "her", 1)]["rows"]) == 50
+    # without config.json: names from the path, budget from the last evaluation
+    r = by[("FetchPush-v4", "acder", 0)]
+    assert r["budget"] == 1000 and r["done"] is False
+
+
+def test_summarize(results):
+    s = {(r["method"], r["env"]): r for r in T.summarize(T.load_runs(results))}
+    assert ("her", "FetchSlide-v4") not in s
+    her = s[("her", "FetchReach-v4")]
+    assert (her["n"], her["k"], her["threshold"]) == (3, 2, 1.0)
+    assert her["episodes"] == [600.0, 1000.0, None]
+    assert her["mean"] == pytest.approx(800.0)
+    assert her["std"] == pytest.approx(np.std([600, 1000], ddof=1))
+    assert her["budget"] == 2000 and her["paper"] == 2240
+    acder = s[("acder", "FetchReach-v4")]
+    assert acder["episodes"] == [200.0, 400.0] and acder["mean"] == 300.0 and acder["paper"] == 400
+    push = s[("her", "FetchPush-v4")]
+    assert push["k"] == 0 and push["mean"] is None and push["std"] is None and push["paper"] == 11600
+    one = s[("acder", "FetchPush-v4")]
+    assert (one["k"], one["mean"], one["std"]) == (1, 1000.0, 0.0)
+    # rows in Table I's order
+    assert [(r["method"], r["env"]) for r in T.summarize(T.load_runs(results))] == [
+        ("her", "FetchReach-v4"), ("her", "FetchPush-v4"), ("acder", "FetchReach-v4"), ("acder", "FetchPush-v4")]
+
+
+def test_paper_table():
+    assert T.PAPER_TABLE_I["acder"] == {"FetchReach-v4": 400, "FetchPush-v4": 2200, "FetchPickAndPlace-v4": 5200}
+    assert T.PAPER_TABLE_I["her-ebp"]["FetchReach-v4"] is None
+    assert T.PAPER_THRESHOLDS == {"FetchReach-v4": 1.0, "FetchPush-v4": 0.95, "FetchPickAndPlace-v4": 0.95}
+
+
+def test_to_markdown(results):
+    md = T.to_markdown(T.summarize(T.load_runs(results)))
+    assert "| DDPG+HER (`her`) | 800 ± 283 (2/3) · paper 2,240 | not reached in 2,000 (0/1) · paper 11,600 |" in md
+    assert "| DDPG+ACDER (`acder`) | 300 ± 141 (2/2) · paper 400 | 1,000 ± 0 (1/1) · paper 2,200 |" in md
+    assert "| ours | ≥ 2.7 | > 2.0 |" in md          # HER missed on a seed / on every seed
+    assert "| paper | 5.6 | 5.3 |" in md
+    assert "Reach (100%)" in md and "Push (95%)" in md
+
+
+def test_learning_curves(tmp_path):
+    make_run(tmp_path, "FetchReach-v4", "her", 0, [(0, 0.0), (100, 0.5), (200, 1.0)], epochs=1, cycles=25, workers=4)
+    make_run(tmp_path, "FetchReach-v4", "her", 1, [(0, 0.0), (50, 0.2), (100, 0.3), (150, 0.4)],
+             epochs=1, cycles=25, workers=4)
+    # stopped early (done.json before the budget of 200): holds its last value up to the budget
+    make_run(tmp_path, "FetchReach-v4", "acder", 0, [(0, 0.0), (100, 1.0)], epochs=1, cycles=25, workers=4,
+             done=True)
+    curves = T.learning_curves(T.load_runs(tmp_path))
+    x, mean, std, n = curves[("FetchReach-v4", "her")]
+    np.testing.assert_allclose(x, [0, 50, 100, 150, 200])
+    np.testing.assert_allclose(n, [2, 2, 2, 2, 1])
+    np.testing.assert_allclose(mean, [0.0, (0.25 + 0.2) / 2, 0.4, (0.75 + 0.4) / 2, 1.0])
+    assert std[0] == 0 and std[2] == pytest.approx(0.1)
+    x, mean, _, n = curves[("FetchReach-v4", "acder")]
+    np.testing.assert_allclose(x, [0, 100, 200])
+    np.testing.assert_allclose(mean, [0.0, 1.0, 1.0])
+
+
+def _args(results, fmt="markdown"):
+    return argparse.Namespace(results=str(results), format=fmt)
+
+
+def test_cli(results, tmp_path, capsys):
+    assert T.run(_args(results)) == 0
+    assert "DDPG+ACDER" in capsys.readouterr().out
+    assert T.run(_args(results, "json")) == 0
+    assert json.loads(capsys.readouterr().out)[0]["method"] == "her"
+    (tmp_path / "empty").mkdir()
+    for bad in (tmp_path / "empty", tmp_path / "missing"):
+        assert T.run(_args(bad)) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and str(bad) in err
