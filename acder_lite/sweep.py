@@ -4,7 +4,8 @@
 starts one `python -m acder_lite train ... --out RESULTS/<env>/<method>/seed<k>` per cell, at
 most `--jobs` at a time, each logging to `DIR/train.log`. Re-running the same command is safe:
 a cell with `done.json` is skipped, one with `checkpoint.pt` (and no `done.json`) is resumed with
-`--resume DIR`, any other cell starts fresh. Ctrl-C (SIGINT, or SIGTERM) forwards SIGINT to the
+`--resume DIR`, an empty or missing one starts fresh; anything else (a live run, a progress.csv
+without checkpoint) is left alone. Ctrl-C (SIGINT, or SIGTERM) forwards SIGINT to the
 running children, waits until they have exited (leaving their checkpoints) and returns 130.
 """
 from __future__ import annotations
@@ -29,13 +30,6 @@ POLL_S = 0.2
 """How often the scheduler checks its children."""
 
 
-RUNNING_FILE = "running.pid"
-"""Written by the sweep while a train process owns the folder, so a second sweep leaves it alone."""
-
-STALE_FILES = ("progress.csv", "config.json", "policy.pt")
-"""What a run interrupted before its first checkpoint leaves; renamed `NAME.<time>.stale` before a fresh start."""
-
-
 @dataclass
 class Cell:
     """One (env, method, seed) of the grid and what the sweep will do with it."""
@@ -45,7 +39,7 @@ class Cell:
     seed: int
     out: Path
     action: str
-    """'run' (fresh), 'resume' (checkpoint.pt, no done.json) or 'skip'."""
+    """'run' (fresh), 'resume' (checkpoint.pt, no done.json) or 'skip' (see `plan`)."""
     note: str = ""
     """Why a cell is skipped, or what was found in its directory."""
 
@@ -59,36 +53,56 @@ def run_dir(results: str | Path, env: str, method: str, seed: int) -> Path:
     return Path(results) / env / method / f"seed{seed}"
 
 
-def running_pid(out: Path) -> int | None:
-    """The pid in `DIR/running.pid` if that process is alive and is an acder_lite run, else None."""
+def live_runs() -> dict[str, int]:
+    """Run folders (real paths) that a live `acder_lite train` process writes to, from /proc.
+
+    Finds runs started by hand as well as by another sweep; empty where /proc is missing.
+    """
+    found = {}
     try:
-        pid = int((out / RUNNING_FILE).read_text().split()[0])
-        os.kill(pid, 0)
-    except (OSError, ValueError, IndexError):
-        return None
-    try:
-        with open(f"/proc/{pid}/cmdline", "rb") as f:
-            cmdline = f.read()
+        pids = [int(p) for p in os.listdir("/proc") if p.isdigit()]
     except OSError:
-        return pid  # no /proc: trust the live pid
-    return pid if b"acder_lite" in cmdline or not cmdline else None  # empty: just exec'd
+        return found
+    for pid in pids:
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                argv = f.read().decode(errors="replace").split("\0")
+            if not any("acder_lite" in a for a in argv) or "train" not in argv:
+                continue
+            cwd = os.readlink(f"/proc/{pid}/cwd")
+        except OSError:
+            continue
+        for i, a in enumerate(argv):
+            for flag in ("--out", "--resume"):
+                if a == flag and i + 1 < len(argv):
+                    found[os.path.realpath(os.path.join(cwd, argv[i + 1]))] = pid
+                elif a.startswith(flag + "="):
+                    found[os.path.realpath(os.path.join(cwd, a.split("=", 1)[1]))] = pid
+    return found
 
 
-def cell_state(out: Path) -> str:
-    """'done' (done.json), 'running' (a live train process owns it), 'interrupted' (checkpoint.pt,
-    no done.json) or 'new'."""
+def cell_state(out: Path, live: dict[str, int] | None = None) -> str:
+    """What a run folder holds: 'done' (done.json), 'running' (a live train process writes to it,
+    see `live_runs`), 'interrupted' (checkpoint.pt), 'orphan' (progress.csv, no checkpoint) or 'new'."""
     if (out / "done.json").exists():
         return "done"
-    if running_pid(out) is not None:
+    if live and os.path.realpath(out) in live:
         return "running"
     if (out / "checkpoint.pt").exists():
         return "interrupted"
+    if (out / "progress.csv").exists():
+        return "orphan"
     return "new"
 
 
 def plan(envs, methods, seeds, results) -> list[Cell]:
-    """The grid in env-major order, each cell with its action. Assumes names were validated."""
+    """The grid in env-major order, each cell with its action. Assumes names were validated.
+
+    Never touches a folder that is complete, written by a live process, or holds a progress.csv
+    it cannot resume (no checkpoint.pt: committed results, or a run stopped before its first epoch).
+    """
     cells = []
+    live = live_runs()
     for env in envs:
         for method in methods:
             for seed in seeds:
@@ -97,18 +111,19 @@ def plan(envs, methods, seeds, results) -> list[Cell]:
                     cells.append(Cell(env, method, seed, out, "skip",
                                       f"{method} needs a task with an object"))
                     continue
-                state = cell_state(out)
+                state = cell_state(out, live)
                 if state == "done":
                     cells.append(Cell(env, method, seed, out, "skip", "already complete"))
                 elif state == "running":
                     cells.append(Cell(env, method, seed, out, "skip",
-                                      f"running elsewhere, pid {running_pid(out)}"))
+                                      f"a live train process writes to it, pid {live[os.path.realpath(out)]}"))
                 elif state == "interrupted":
                     cells.append(Cell(env, method, seed, out, "resume", "checkpoint.pt found"))
+                elif state == "orphan":
+                    cells.append(Cell(env, method, seed, out, "skip", "progress.csv without checkpoint.pt "
+                                      "or done.json: nothing to resume; remove the folder to start over"))
                 else:
-                    stale = [n for n in STALE_FILES if (out / n).exists()]
-                    note = f"no checkpoint; will set aside {', '.join(stale)}" if stale else ""
-                    cells.append(Cell(env, method, seed, out, "run", note))
+                    cells.append(Cell(env, method, seed, out, "run"))
     return cells
 
 
@@ -203,18 +218,13 @@ def _child_env(threads: int) -> dict:
     return env
 
 
-def _set_aside_stale(out: Path) -> None:
-    """Rename the files a run without checkpoint left, so train accepts the folder again."""
-    stamp = time.strftime("%Y%m%d-%H%M%S")
-    for name in STALE_FILES:
-        if (out / name).exists():
-            (out / name).rename(out / f"{name}.{stamp}.stale")
+def _replan(cell: Cell) -> Cell:
+    """The cell planned again just before it starts (hours may have passed since the plan)."""
+    return plan([cell.env], [cell.method], [cell.seed], cell.out.parent.parent.parent)[0]
 
 
 def _start(cell: Cell, args) -> tuple[subprocess.Popen, object, float]:
     cell.out.mkdir(parents=True, exist_ok=True)
-    if cell.action == "run":
-        _set_aside_stale(cell.out)
     cmd = train_command(cell, args)
     log = open(cell.out / "train.log", "a")
     log.write(f"# {time.strftime('%Y-%m-%d %H:%M:%S')} sweep: {shlex.join(cmd)}\n")
@@ -222,14 +232,12 @@ def _start(cell: Cell, args) -> tuple[subprocess.Popen, object, float]:
     # A new session: a terminal's Ctrl-C reaches only the sweep, which forwards it exactly once.
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                             env=_child_env(args.threads), start_new_session=True)
-    (cell.out / RUNNING_FILE).write_text(f"{proc.pid}\n")
     return proc, log, time.monotonic()
 
 
 def _release(cell: Cell, log) -> None:
-    """After a child exited: close its log, drop its running.pid."""
+    """After a child exited: close its log."""
     log.close()
-    (cell.out / RUNNING_FILE).unlink(missing_ok=True)
 
 
 def _finish_status(cell: Cell, rc: int) -> str:
@@ -299,7 +307,10 @@ def run(args) -> int:
         try:
             while todo or running:
                 while todo and len(running) < args.jobs:
-                    cell = todo.pop(0)
+                    cell = _replan(todo.pop(0))
+                    if cell.action == "skip":
+                        _say(f"skip   {cell.name} ({cell.note})")
+                        continue
                     proc, log, t0 = _start(cell, args)
                     running[proc.pid] = (cell, proc, log, t0)
                     _say(f"start  {cell.name} ({cell.action}) pid={proc.pid} -> {cell.out / 'train.log'}")

@@ -113,11 +113,11 @@ def run_episodes(envs: list, act, T: int, rng=None, starts=None) -> dict:
         a = act(o[:, t], goal)
         u[:, t], g[:, t] = a, goal
         for i, env in enumerate(envs):
-            obs, _, _, _, info = env.step(a[i])
+            obs, ok = E.step(env, a[i])
             o[i, t + 1], ag[i, t + 1] = obs["observation"], obs["achieved_goal"]
             E.get_state(env, state[i, t + 1])
             if t == T - 1:
-                success[i] = bool(info["is_success"])
+                success[i] = ok
     return dict(o=o, ag=ag, state=state, g=g, u=u, success=success, novel=novel)
 
 

@@ -1,0 +1,321 @@
+"""Meshcat scenes of the Fetch tasks, built from the MuJoCo model itself (for the book).
+
+A `Recording` is a list of frames; each frame holds the world pose of every visible geom
+(`data.geom_xpos`, `data.geom_xmat`) and the goal. Frames come from full MuJoCo states
+(`record_states`), so anything that can be stored as a state — a rollout, the start states of
+chapter 6 — can be shown. `scene_from_recording` turns a recording into a Meshcat scene: meshes
+from `model.mesh_vert`/`mesh_face` (decimated by vertex clustering to keep the page small),
+primitives for boxes, spheres, cylinders, capsules and the floor plane, colours from `geom_rgba`
+or the geom's material, the goal as the model's `target0` site, and one animation track per
+moving geom. `save_scene_html` writes Meshcat's self-contained static page (three.js inlined, no
+network), and `show_scene` embeds a saved page in a notebook with an iframe.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from . import envs as E
+
+SCENE_DIR = os.path.join("book", "_static", "scenes")
+"""Where scenes go, relative to the repo root (Jupyter Book copies `book/_static` into the site)."""
+
+FOCUS = np.array([1.1, 0.75, 0.45])
+"""World point (the table, in front of the robot) moved to the viewer's origin, where the camera looks."""
+
+CAMERA = (1.0, 1.25, 0.95)
+"""Camera position relative to FOCUS, in world axes (x forward from the robot, z up)."""
+
+_DEFAULT_RGBA = np.array([0.5, 0.5, 0.5, 1.0])
+
+
+@dataclass
+class Recording:
+    """Frames of a Fetch scene: per frame the pose of every geom, and the goal."""
+    model: mujoco.MjModel
+    xpos: np.ndarray                 # (F, ngeom, 3)
+    xmat: np.ndarray                 # (F, ngeom, 3, 3)
+    goal: np.ndarray                 # (F, 3)
+    dt: float                        # seconds between frames
+    episode: dict = field(default_factory=dict)   # the rollout's arrays, if recorded from one
+
+    @property
+    def n_frames(self) -> int:
+        return self.xpos.shape[0]
+
+
+def record_states(env, states: np.ndarray, goals: np.ndarray, dt: float | None = None) -> Recording:
+    """One frame per stored full MuJoCo state (`envs.get_state`); the env is put back afterwards."""
+    states = np.asarray(states, np.float64)
+    goals = np.broadcast_to(np.asarray(goals, np.float64), (len(states), 3))
+    saved = E.get_state(env)
+    m, d = env.model, env.data
+    xpos = np.empty((len(states), m.ngeom, 3))
+    xmat = np.empty((len(states), m.ngeom, 3, 3))
+    for i, s in enumerate(states):
+        E.set_state(env, s)
+        xpos[i] = d.geom_xpos
+        xmat[i] = d.geom_xmat.reshape(-1, 3, 3)
+    E.set_state(env, saved)
+    return Recording(m, xpos, xmat, np.array(goals), float(env.dt if dt is None else dt))
+
+
+def record_rollout(env, policy=None, steps: int | None = None, seed: int | None = None,
+                   every: int = 2) -> Recording:
+    """Roll out one episode (the trainer's own `run_episodes`) and record every `every`-th step.
+
+    `policy(o, g) -> u` acts on batches (a `trainer.Policy` does); None acts uniformly at random.
+    `recording.episode` keeps the rollout's arrays (o, ag, g, u, state, success) for one env.
+    """
+    from .trainer import run_episodes
+    T = steps or E.horizon(env.spec.id if env.spec else "FetchReach-v4")
+    if seed is not None:
+        env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    high = env.action_space.high
+    act = policy if policy is not None else (lambda o, g: rng.uniform(-high, high, (len(o), high.size)))
+    ep = run_episodes([env], act, T)
+    ep = {k: v[0] for k, v in ep.items()}
+    keep = np.unique(np.r_[np.arange(0, T + 1, every), T])
+    goals = np.concatenate([ep["g"], ep["g"][-1:]])[keep]
+    rec = record_states(env, ep["state"][keep], goals, env.dt * every)
+    rec.episode = ep
+    return rec
+
+
+# ----- geometry
+
+def _rgba(m, i: int) -> np.ndarray:
+    """MuJoCo's rule: a geom's material colour applies unless the geom sets its own rgba."""
+    mat = m.geom_matid[i]
+    if mat >= 0 and np.allclose(m.geom_rgba[i], _DEFAULT_RGBA):
+        return np.array(m.mat_rgba[mat])
+    return np.array(m.geom_rgba[i])
+
+
+def visible_geoms(m) -> list[int]:
+    """Geoms a viewer shows: groups 0-2, opaque enough, not the mocap target's helper boxes."""
+    out = []
+    for i in range(m.ngeom):
+        body = m.geom_bodyid[i]
+        if m.geom_group[i] >= 3 or _rgba(m, i)[3] < 0.5 or m.body_mocapid[body] >= 0:
+            continue
+        out.append(i)
+    return out
+
+
+def decimate(verts: np.ndarray, faces: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """Vertex clustering: merge the vertices in each cube of side `cell`, drop collapsed faces."""
+    key = np.floor(verts / cell).astype(np.int64)
+    _, inv = np.unique(key, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    n = inv.max() + 1
+    new_v = np.zeros((n, 3))
+    np.add.at(new_v, inv, verts)
+    new_v /= np.bincount(inv, minlength=n)[:, None]
+    f = inv[faces]
+    ok = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    f = f[ok]
+    _, first = np.unique(np.sort(f, axis=1), axis=0, return_index=True)
+    return new_v.astype(np.float32), f[np.sort(first)].astype(np.uint32)
+
+
+def mesh_arrays(m, mesh_id: int, cell: float | None = 0.012) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and faces of a model mesh (in its geom's frame), decimated if `cell` is given."""
+    va, vn = m.mesh_vertadr[mesh_id], m.mesh_vertnum[mesh_id]
+    fa, fn = m.mesh_faceadr[mesh_id], m.mesh_facenum[mesh_id]
+    v = np.array(m.mesh_vert[va:va + vn], np.float64)
+    f = np.array(m.mesh_face[fa:fa + fn], np.int64)
+    if cell:
+        v, f = decimate(v, f, cell)
+    return v, f
+
+
+def _color(rgba) -> int:
+    r, g, b = (np.clip(np.asarray(rgba[:3]), 0, 1) * 255).round().astype(int)
+    return int(r) << 16 | int(g) << 8 | int(b)
+
+
+def _material(rgba):
+    import meshcat.geometry as mg
+    a = float(rgba[3])
+    return mg.MeshLambertMaterial(color=_color(rgba), opacity=a, transparent=a < 1)
+
+
+def _rot_x(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    T = np.eye(4)
+    T[1:3, 1:3] = [[c, -s], [s, c]]
+    return T
+
+
+def _set_geom(node, m, i: int, cell: float | None) -> None:
+    """Put geom i's shape under `node`, in the geom's own frame (three.js cylinders run along y,
+    MuJoCo's along z, hence the extra rotation)."""
+    import meshcat.geometry as mg
+    t, size, mat = m.geom_type[i], m.geom_size[i], _material(_rgba(m, i))
+    G = mujoco.mjtGeom
+    if t == G.mjGEOM_MESH:
+        v, f = mesh_arrays(m, m.geom_dataid[i], cell)
+        node.set_object(mg.TriangularMeshGeometry(v, f), mat)
+    elif t == G.mjGEOM_BOX:
+        node.set_object(mg.Box(2 * size), mat)
+    elif t == G.mjGEOM_SPHERE:
+        node.set_object(mg.Sphere(size[0]), mat)
+    elif t == G.mjGEOM_ELLIPSOID:
+        node.set_object(mg.Ellipsoid(size[:3]), mat)
+    elif t in (G.mjGEOM_CYLINDER, G.mjGEOM_CAPSULE):
+        node["body"].set_object(mg.Cylinder(2 * size[1], size[0]), mat)
+        node["body"].set_transform(_rot_x(np.pi / 2))
+        if t == G.mjGEOM_CAPSULE:
+            for k, z in (("cap0", -size[1]), ("cap1", size[1])):
+                node[k].set_object(mg.Sphere(size[0]), mat)
+                T = np.eye(4)
+                T[2, 3] = z
+                node[k].set_transform(T)
+    elif t == G.mjGEOM_PLANE:
+        sx, sy = (s if s > 0 else 5.0 for s in size[:2])
+        node["plane"].set_object(mg.Box([2 * sx, 2 * sy, 0.01]), mat)
+        T = np.eye(4)
+        T[2, 3] = -0.005
+        node["plane"].set_transform(T)
+
+
+def _pose(pos, mat) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = mat
+    T[:3, 3] = pos
+    return T
+
+
+def _site(m, name: str):
+    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name)
+    return (float(m.site_size[i][0]), np.array(m.site_rgba[i])) if i >= 0 else (0.02, np.array([1, 0, 0, 1.0]))
+
+
+def scene_from_recording(rec: Recording, vis=None, cell: float | None = 0.012, markers=None,
+                         marker_colors=None, marker_radius: float = 0.012, loop: int = 1000):
+    """Build (or add to) a Meshcat visualizer showing `rec`, animated when it has several frames.
+
+    `markers` (N, 3) world points drawn as small spheres with `marker_colors` (N, 3) in [0, 1]
+    (e.g. curiosity along a rollout). Returns the visualizer.
+    """
+    import meshcat
+    import meshcat.geometry as mg
+    from meshcat.animation import Animation
+
+    if vis is None:
+        vis = meshcat.Visualizer()
+    m = rec.model
+    root = vis["fetch"]
+    shift = np.eye(4)
+    shift[:3, 3] = -FOCUS
+    root.set_transform(shift)
+    vis["/Grid"].set_property("visible", False)
+    vis["/Axes"].set_property("visible", False)
+    cx, cy, cz = CAMERA
+    vis["/Cameras/default/rotated/<object>"].set_property("position", [cx, cz, -cy])  # y-up frame
+
+    anim = Animation(default_framerate=max(1, round(1 / rec.dt)))
+    F = rec.n_frames
+    for i in visible_geoms(m):
+        node = root[f"geom{i}"]
+        _set_geom(node, m, i, cell)
+        node.set_transform(_pose(rec.xpos[0, i], rec.xmat[0, i]))
+        moving = F > 1 and (np.ptp(rec.xpos[:, i], axis=0).max() > 1e-6 or np.ptp(rec.xmat[:, i], axis=0).max() > 1e-6)
+        if moving:
+            for k in range(F):
+                with anim.at_frame(vis, k) as frame:
+                    frame["fetch"][f"geom{i}"].set_transform(_pose(rec.xpos[k, i], rec.xmat[k, i]))
+    radius, rgba = _site(m, "target0")
+    target = root["target"]
+    target.set_object(mg.Sphere(radius), _material(rgba))
+    target.set_transform(_pose(rec.goal[0], np.eye(3)))
+    if F > 1 and np.ptp(rec.goal, axis=0).max() > 1e-9:
+        for k in range(F):
+            with anim.at_frame(vis, k) as frame:
+                frame["fetch"]["target"].set_transform(_pose(rec.goal[k], np.eye(3)))
+    if markers is not None:
+        add_markers(vis, markers, marker_colors, marker_radius)
+    if anim.clips:
+        vis.set_animation(anim, play=True, repetitions=loop)
+    return vis
+
+
+def add_markers(vis, points, colors=None, radius: float = 0.012, name: str = "markers") -> None:
+    """Small spheres at world `points` (N, 3), coloured by `colors` (N, 3) in [0, 1]."""
+    import meshcat.geometry as mg
+    points = np.asarray(points, float).reshape(-1, 3)
+    colors = np.full((len(points), 3), [1.0, 0.5, 0.0]) if colors is None else np.asarray(colors, float)
+    vis["fetch"][name].delete()
+    for k, (p, c) in enumerate(zip(points, colors)):
+        node = vis["fetch"][name][f"m{k}"]
+        node.set_object(mg.Sphere(radius), _material(np.r_[c[:3], 1.0]))
+        node.set_transform(_pose(p, np.eye(3)))
+
+
+def save_scene_html(vis, path: str) -> int:
+    """Write the visualizer's self-contained page to `path` atomically; returns its size in bytes.
+
+    Meshcat's `static_html()` inlines three.js and the scene, so the page needs no network.
+    """
+    html = vis.static_html()
+    if "https://" in html.split("<script>", 1)[0]:
+        raise RuntimeError("scene page references the network")
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    tmp = path + ".tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(html)
+    os.replace(tmp, path)
+    return os.path.getsize(path)
+
+
+def repo_root() -> str:
+    """The repo root (the directory holding `acder_lite/`)."""
+    return os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def scene_path(name: str) -> str:
+    """Absolute path of scene `name` (without .html) under book/_static/scenes/."""
+    return os.path.join(repo_root(), SCENE_DIR, f"{name}.html")
+
+
+def save_scene(vis, name: str, close: bool = True) -> str:
+    """Save `vis` as book/_static/scenes/NAME.html, close its server (unless `close=False`),
+    and return the absolute path."""
+    path = scene_path(name)
+    save_scene_html(vis, path)
+    if close:
+        close_visualizer(vis)
+    return path
+
+
+def close_visualizer(vis) -> None:
+    """Stop the local Meshcat server a `meshcat.Visualizer()` started."""
+    try:
+        vis.close()
+    except Exception:
+        pass
+    server = getattr(getattr(vis, "window", None), "server_proc", None)
+    if server is not None:
+        try:
+            server.kill()
+            server.wait(timeout=5)
+        except Exception:
+            pass
+
+
+def show_scene(name: str, height: int = 480):
+    """An iframe showing book/_static/scenes/NAME.html, for a notebook under notebooks/.
+
+    The src `../_static/scenes/NAME.html` is relative to the built page: chapters land in
+    _build/html/notebooks/ and _config.yml's `html_static_path: [book/_static]` copies the scenes
+    to _build/html/_static/scenes/. (In a live Jupyter session open the .html file directly.)
+    """
+    from IPython.display import HTML
+    src = f"../_static/scenes/{name}.html"
+    return HTML(f'<iframe src="{src}" width="100%" height="{height}" '
+                f'style="border:1px solid #ccc" loading="lazy" title="Meshcat scene {name}"></iframe>')

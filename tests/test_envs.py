@@ -1,0 +1,60 @@
+import numpy as np
+import pytest
+
+from acder_lite import envs as E
+from acder_lite.config import ConfigError
+
+
+@pytest.mark.parametrize("env_id", ["FetchPush-v4", "FetchPickAndPlace-v4"])
+def test_restored_state_reproduces_next_20_steps_exactly(env_id):
+    rng = np.random.default_rng(0)
+    a = E.make_env(env_id, seed=3)
+    for _ in range(7):
+        E.step(a, rng.uniform(-1, 1, 4))
+    saved = E.get_state(a)
+    actions = rng.uniform(-1, 1, (20, 4))
+    ref = [E.step(a, u)[0] for u in actions]
+
+    b = E.make_env(env_id, seed=99)        # a fresh env with another episode under way
+    b.goal = a.goal.copy()
+    E.set_state(b, saved)
+    for u, want in zip(actions, ref):
+        got = E.step(b, u)[0]
+        for k in ("observation", "achieved_goal"):
+            np.testing.assert_array_equal(got[k], want[k])
+
+
+@pytest.mark.parametrize("env_id", ["FetchPush-v4", "FetchPickAndPlace-v4"])
+def test_restart_reproduces_stored_observation(env_id):
+    a = E.make_env(env_id, seed=4)
+    rng = np.random.default_rng(1)
+    for _ in range(12):
+        obs = E.step(a, rng.uniform(-1, 1, 4))[0]
+    saved, goal = E.get_state(a), a.goal.copy()
+    b = E.make_env(env_id, seed=5)
+    got = E.restart_from(b, saved)                 # restart_goal="resample": the goal is fresh
+    np.testing.assert_array_equal(got["observation"], obs["observation"])
+    np.testing.assert_array_equal(got["achieved_goal"], obs["achieved_goal"])
+    got = E.restart_from(b, saved, goal)            # restart_goal="episode": the stored goal
+    np.testing.assert_array_equal(got["desired_goal"], goal)
+
+
+def test_unknown_env_is_a_config_error():
+    with pytest.raises(ConfigError, match="env='CartPole-v1'.*FetchReach-v4"):
+        E.make_env("CartPole-v1")
+
+
+def test_seeding_is_deterministic():
+    a, b = E.make_env("FetchPush-v4", seed=7), E.make_env("FetchPush-v4", seed=7)
+    np.testing.assert_array_equal(a._get_obs()["observation"], b._get_obs()["observation"])
+    np.testing.assert_array_equal(a.goal, b.goal)
+
+
+def test_step_matches_the_env_step_up_to_the_kinematics_refresh():
+    a, b = E.make_env("FetchPush-v4", seed=2), E.make_env("FetchPush-v4", seed=2)
+    u = np.array([0.5, -0.2, 0.1, 0.0])
+    mine, ok = E.step(a, u)
+    theirs, _, _, _, info = b.step(u)
+    np.testing.assert_allclose(mine["observation"], theirs["observation"], atol=2e-3)
+    assert ok == info["is_success"]
+    np.testing.assert_array_equal(a.data.qpos, b.data.qpos)   # same physics step

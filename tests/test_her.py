@@ -1,0 +1,57 @@
+import numpy as np
+import pytest
+
+from acder_lite.envs import make_env
+from acder_lite.her import sample_her_transitions
+
+
+@pytest.fixture(scope="module")
+def episodes():
+    """Hand-made episodes whose achieved goals encode (episode, step), so a relabelled goal says
+    exactly where it came from."""
+    n, T = 30, 50
+    ag = np.zeros((n, T + 1, 3), np.float32)
+    ag[..., 0] = np.arange(n)[:, None]
+    ag[..., 1] = np.arange(T + 1)[None, :]
+    g = np.full((n, T, 3), -7.0, np.float32)
+    o = np.zeros((n, T + 1, 5), np.float32)
+    u = np.zeros((n, T, 4), np.float32)
+    return dict(o=o, ag=ag, g=g, u=u)
+
+
+def test_relabelled_goals_come_from_a_later_step_of_the_same_episode(episodes):
+    rng = np.random.default_rng(0)
+    env = make_env("FetchReach-v4", seed=0)
+    b = sample_her_transitions(episodes, 20_000, 0.8, env.compute_reward, rng)
+    h = b["her"]
+    assert np.all(b["g"][h, 0] == b["ep"][h])          # same episode
+    assert np.all(b["g"][h, 1] > b["t"][h])            # strictly later step
+    assert np.all(b["g"][h, 1] <= 50)
+    assert np.all(b["g"][~h] == -7.0)                  # the others keep their goal
+    # relabel ratio 0.8 = 1 - 1/(1+k), k=4; 5 sigma of a binomial proportion
+    sigma = np.sqrt(0.8 * 0.2 / 20_000)
+    assert abs(h.mean() - 0.8) < 5 * sigma
+    # every later step is reachable, including the final achieved goal ag[T]
+    assert set(np.unique(b["future_t"][b["t"] == 0])) == set(range(1, 51))
+
+
+def test_rewards_match_compute_reward():
+    env = make_env("FetchPush-v4", seed=1)
+    rng = np.random.default_rng(1)
+    n, T = 4, 50
+    ag = rng.uniform(0, 0.2, (n, T + 1, 3)).astype(np.float32)
+    g = rng.uniform(0, 0.2, (n, T, 3)).astype(np.float32)
+    eps = dict(o=np.zeros((n, T + 1, 2), np.float32), ag=ag, g=g, u=np.zeros((n, T, 4), np.float32))
+    b = sample_her_transitions(eps, 4000, 0.8, env.compute_reward, rng)
+    d = np.linalg.norm(b["ag2"] - b["g"], axis=-1)
+    np.testing.assert_array_equal(b["r"], -(d > 0.05).astype(np.float32))
+    np.testing.assert_array_equal(b["r"], env.compute_reward(b["ag2"], b["g"], None))
+    assert (b["r"] == 0).any() and (b["r"] == -1).any()
+    # a relabelled goal taken from the very next step is always a success
+    nxt = b["her"] & (b["future_t"] == b["t"] + 1)
+    assert np.all(b["r"][nxt] == 0)
+
+
+def test_no_her_when_future_p_is_zero(episodes):
+    b = sample_her_transitions(episodes, 1000, 0.0, lambda a, g, i: np.zeros(len(a)), np.random.default_rng(2))
+    assert not b["her"].any() and np.all(b["g"] == -7.0)
