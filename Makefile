@@ -23,7 +23,7 @@ test: setup
 
 # Execute the notebooks and build the HTML book into _build/html (offline, warnings are errors).
 book: setup
-	$(PY) -m jupyter_book build --warningiserror --keep-going .
+	.venv/bin/jupyter-book build --warningiserror --keep-going .
 
 # make train ARGS="--env FetchPush-v4 --method acder --seed 0 --out results/FetchPush-v4/acder/seed0"
 train: setup

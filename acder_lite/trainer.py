@@ -343,10 +343,11 @@ class Trainer:
             return False
         return all(r["test_success"] >= c.stop_after_success for r in self.rows[-c.stop_patience:])
 
-    def train(self, progress: bool = True) -> list[dict]:
+    def train(self, progress: bool = True, max_cycles: int | None = None) -> list[dict]:
         """Train until cfg.epochs (or the early stop), checkpointing after every epoch.
 
-        On KeyboardInterrupt the last end-of-epoch checkpoint stays on disk (it is written
+        `max_cycles` pauses the run after that many cycles in all, as an interrupt at that point
+        would (no done.json; `--resume` continues). On KeyboardInterrupt the last end-of-epoch checkpoint stays on disk (it is written
         atomically), so `--resume` continues from there; the interrupt is re-raised.
         """
         from tqdm import tqdm
@@ -354,11 +355,14 @@ class Trainer:
         total = c.epochs * c.cycles
         if self.out_dir:
             self.write_config()
+            if self.rows:  # a resumed run: drop rows logged after its checkpoint
+                write_csv(os.path.join(self.out_dir, "progress.csv"), self.rows, self.columns)
+        stop_at = total if max_cycles is None else min(total, max_cycles)
         bar = tqdm(total=total, initial=self.cycle, disable=not progress, unit="cycle",
                    dynamic_ncols=True, file=sys.stderr)
         t0 = time.perf_counter()
         try:
-            while self.cycle < total and not self.done:
+            while self.cycle < stop_at and not self.done:
                 self.train_cycle()
                 bar.update(1)
                 end_of_epoch = self.cycle % c.cycles == 0
@@ -372,10 +376,10 @@ class Trainer:
                     t0 = time.perf_counter()
                     if self.out_dir:
                         self.save(os.path.join(self.out_dir, "checkpoint.pt"))
-            self.done = True
+            self.done = self.done or self.cycle >= total
         finally:
             bar.close()
-        if self.out_dir:
+        if self.out_dir and self.done:
             write_json(os.path.join(self.out_dir, "done.json"),
                        dict(epochs=self.cycle / c.cycles, episodes=self.episodes,
                             stopped_early=self.cycle < total, final_test_success=self.success_rate,

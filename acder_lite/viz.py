@@ -26,7 +26,7 @@ SCENE_DIR = os.path.join("book", "_static", "scenes")
 FOCUS = np.array([1.1, 0.75, 0.45])
 """World point (the table, in front of the robot) moved to the viewer's origin, where the camera looks."""
 
-CAMERA = (1.0, 1.25, 0.95)
+CAMERA = (0.8, 1.0, 0.75)
 """Camera position relative to FOCUS, in world axes (x forward from the robot, z up)."""
 
 _DEFAULT_RGBA = np.array([0.5, 0.5, 0.5, 1.0])
@@ -203,12 +203,11 @@ def scene_from_recording(rec: Recording, vis=None, cell: float | None = 0.012, m
     `markers` (N, 3) world points drawn as small spheres with `marker_colors` (N, 3) in [0, 1]
     (e.g. curiosity along a rollout). Returns the visualizer.
     """
-    import meshcat
     import meshcat.geometry as mg
     from meshcat.animation import Animation
 
     if vis is None:
-        vis = meshcat.Visualizer()
+        vis = new_visualizer()
     m = rec.model
     root = vis["fetch"]
     shift = np.eye(4)
@@ -243,6 +242,16 @@ def scene_from_recording(rec: Recording, vis=None, cell: float | None = 0.012, m
     if anim.clips:
         vis.set_animation(anim, play=True, repetitions=loop)
     return vis
+
+
+def new_visualizer():
+    """`meshcat.Visualizer()` (a local server on 127.0.0.1) without its "open the URL" print."""
+    import contextlib
+    import io
+
+    import meshcat
+    with contextlib.redirect_stdout(io.StringIO()):
+        return meshcat.Visualizer()
 
 
 def add_markers(vis, points, colors=None, radius: float = 0.012, name: str = "markers") -> None:

@@ -1,0 +1,92 @@
+"""Bad input: one line naming the problem and what is allowed, exit code 2, no traceback."""
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from conftest import ROOT
+
+TINY = ["--workers", "1", "--cycles", "2", "--updates-per-cycle", "2", "--batch-size", "16",
+        "--test-episodes", "1", "--hidden", "16", "--threads", "1", "--quiet"]
+
+
+def one_line_error(p, *needles):
+    assert p.returncode == 2, p.stderr
+    lines = [l for l in p.stderr.strip().splitlines() if l.strip()]
+    assert len(lines) == 1, p.stderr
+    assert "Traceback" not in p.stderr
+    for n in needles:
+        assert n in lines[0], lines[0]
+    return lines[0]
+
+
+@pytest.mark.parametrize("args,needles", [
+    (["--env", "CartPole-v1"], ["env", "FetchReach-v4"]),
+    (["--method", "sac"], ["method", "acder"]),
+    (["--workers", "two"], ["--workers", "invalid int"]),
+    (["--lr-actor", "-0.001"], ["lr_actor", "> 0"]),
+    (["--batch-size", "0"], ["batch_size", ">= 1"]),
+    (["--eta", "1.5"], ["eta", "(0, 1)"]),
+    (["--alpha0", "-0.1"], ["alpha0", "[0, 1]"]),
+    (["--restart-goal", "random"], ["restart_goal", "resample"]),
+    (["--method", "her-ebp"], ["her-ebp", "object", "FetchPush-v4"]),
+    (["--no-such-option", "1"], ["unrecognized", "--no-such-option"]),
+])
+def test_train_bad_input(cli, tmp_path, args, needles):
+    out = tmp_path / "run"
+    p = cli("train", "--env", "FetchReach-v4", *args, "--out", str(out))
+    one_line_error(p, *needles)
+    assert not out.exists()
+
+
+def test_existing_run_is_not_overwritten_and_checkpoint_errors(cli, tmp_path):
+    out = tmp_path / "run"
+    p = cli("train", "--env", "FetchReach-v4", "--epochs", "1", *TINY, "--out", str(out))
+    assert p.returncode == 0, p.stderr
+    before = {f: (out / f).read_bytes() for f in os.listdir(out)}
+    p = cli("train", "--env", "FetchReach-v4", "--epochs", "1", *TINY, "--out", str(out))
+    one_line_error(p, "already holds a run", "--resume")
+    assert {f: (out / f).read_bytes() for f in os.listdir(out)} == before
+
+    p = cli("eval", "--checkpoint", str(out / "checkpoint.pt"), "--episodes", "2")
+    assert p.returncode == 0 and "success_rate=" in p.stdout
+    p = cli("eval", "--checkpoint", str(out / "checkpoint.pt"), "--env", "FetchPush-v4")
+    one_line_error(p, "FetchReach-v4", "--env FetchReach-v4")
+    p = cli("train", "--resume", str(out), "--env", "FetchPush-v4")
+    one_line_error(p, "env", "differs")
+
+    trunc = tmp_path / "trunc.pt"
+    data = (out / "checkpoint.pt").read_bytes()
+    trunc.write_bytes(data[: len(data) // 2])
+    p = cli("eval", "--checkpoint", str(trunc))
+    one_line_error(p, "truncated")
+    p = cli("eval", "--checkpoint", str(tmp_path / "missing.pt"))
+    one_line_error(p, "does not exist")
+    p = cli("eval", "--checkpoint", str(out / "checkpoint.pt"), "--episodes", "0")
+    one_line_error(p, "--episodes", ">= 1")
+
+
+def test_ctrl_c_leaves_a_checkpoint_to_resume(tmp_path):
+    out = tmp_path / "run"
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    p = subprocess.Popen([sys.executable, "-m", "acder_lite", "train", "--env", "FetchReach-v4",
+                          "--epochs", "50", *TINY, "--out", str(out)], cwd=ROOT, env=env,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while not (out / "checkpoint.pt").exists() and time.time() < deadline:
+        time.sleep(0.2)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert "--resume" in err and "Traceback" not in err
+    from acder_lite.io import load_torch
+    done = load_torch(str(out / "checkpoint.pt"))["progress"]["cycle"]
+    assert done >= 2 and not (out / "done.json").exists()
+    p = subprocess.run([sys.executable, "-m", "acder_lite", "train", "--resume", str(out), "--epochs",
+                        str(done // 2 + 1), "--quiet"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert (out / "done.json").exists()

@@ -1,0 +1,115 @@
+"""The DDPG losses on a fixed batch, with networks set to constants so the values are known."""
+import numpy as np
+import pytest
+import torch
+
+from acder_lite.core import Actor, Critic
+from acder_lite.curiosity import ICM, SICM
+from acder_lite.ddpg import compute_loss_pi, compute_loss_q
+
+
+def const_critic(c):
+    q = Critic(3, 2, hidden=4, layers=1)
+    for p in q.parameters():
+        torch.nn.init.zeros_(p)
+    q.net[-1].bias.data.fill_(c)
+    return q
+
+
+def const_actor(b):
+    a = Actor(3, 2, hidden=4, layers=1)
+    for p in a.parameters():
+        torch.nn.init.zeros_(p)
+    a.net[-2].bias.data.fill_(b)          # output = tanh(b)
+    return a
+
+
+def batch():
+    return dict(x=torch.randn(4, 3), x2=torch.randn(4, 3), u=torch.rand(4, 2),
+                r=torch.tensor([-1.0, 0.0, -1.0, -1.0]))
+
+
+def test_loss_q_by_hand():
+    b = batch()
+    # Q = 2, Q' = -10: y = r + 0.98 * -10 = [-10.8, -9.8, -10.8, -10.8]; (y - 2)^2 mean
+    loss, td = compute_loss_q(const_critic(2.0), const_actor(0.3), const_critic(-10.0), b, 0.98, (-50.0, 0.0))
+    y = np.array([-10.8, -9.8, -10.8, -10.8])
+    assert loss.item() == pytest.approx(np.mean((y - 2) ** 2), rel=1e-6)
+    np.testing.assert_allclose(td.numpy(), y - 2, rtol=1e-6)
+
+
+def test_loss_q_target_clip_and_weights():
+    b = batch()
+    # Q' = -100: y = r - 98 clipped to -1/(1-0.98) = -50; Q = 0
+    loss, _ = compute_loss_q(const_critic(0.0), const_actor(0.0), const_critic(-100.0), b, 0.98, (-50.0, 0.0))
+    assert loss.item() == pytest.approx(2500.0)
+    # Q' = +10 with the upper clip 0: y = r clipped to <= 0
+    w = torch.tensor([1.0, 0.0, 0.5, 0.5])
+    loss, _ = compute_loss_q(const_critic(0.0), const_actor(0.0), const_critic(10.0), b, 0.98, (-50.0, 0.0), w)
+    assert loss.item() == pytest.approx((1.0 * 0 + 0 + 0.5 * 0 + 0.5 * 0) / 4)
+    loss, _ = compute_loss_q(const_critic(1.0), const_actor(0.0), const_critic(10.0), b, 0.98, (-50.0, 0.0), w)
+    assert loss.item() == pytest.approx((1.0 * 1 + 0 + 0.5 * 1 + 0.5 * 1) / 4)
+
+
+def test_loss_pi_by_hand():
+    b = batch()
+    # Q = 3 everywhere, pi = tanh(0.5) in both dims: loss = -3 + 1.0 * tanh(0.5)^2
+    loss = compute_loss_pi(const_actor(0.5), const_critic(3.0), b, action_l2=1.0)
+    assert loss.item() == pytest.approx(-3 + np.tanh(0.5) ** 2, rel=1e-6)
+
+
+def test_actor_loss_does_not_train_the_critic():
+    from acder_lite.config import Config
+    from acder_lite.ddpg import DDPG
+    torch.manual_seed(0)
+    cfg = Config(hidden=16, layers=2).resolve()
+    agent = DDPG(3, 2, cfg)
+    b = batch()
+    # the critic's step must equal a step on the critic loss alone
+    ref = DDPG(3, 2, cfg)
+    ref.load_state_dict(agent.state_dict())
+    agent.update(b, (-50.0, 0.0))
+    loss, _ = compute_loss_q(ref.critic, ref.actor_targ, ref.critic_targ, b, cfg.gamma, (-50.0, 0.0))
+    ref.q_opt.zero_grad()
+    loss.backward()
+    ref.q_opt.step()
+    for p, q in zip(agent.critic.parameters(), ref.critic.parameters()):
+        torch.testing.assert_close(p, q)
+
+
+def test_polyak():
+    from acder_lite.config import Config
+    from acder_lite.ddpg import DDPG
+    cfg = Config(hidden=8, layers=1, polyak=0.95).resolve()
+    agent = DDPG(3, 2, cfg)
+    for p in agent.actor.parameters():
+        p.data.fill_(1.0)
+    for p in agent.actor_targ.parameters():
+        p.data.fill_(0.0)
+    agent.update_targets()
+    for p in agent.actor_targ.parameters():
+        assert torch.allclose(p, torch.full_like(p, 0.05))
+
+
+@pytest.mark.parametrize("cls", [SICM, ICM])
+def test_curiosity_losses_decrease_on_a_fixed_batch(cls):
+    torch.manual_seed(0)
+    s, a = torch.randn(256, 6), torch.rand(256, 2) * 2 - 1
+    s2 = s + 0.1 * torch.cat([a, a, a], -1)        # a simple dynamics to learn
+    m = cls(6, 2, hidden=64, lr=1e-3) if cls is SICM else cls(6, 2, feat_dim=16, hidden=64, lr=1e-3)
+    first = [float(m.step(s, a, s2, eta=0.8)[1]) for _ in range(5)]
+    for _ in range(300):
+        r, loss = m.step(s, a, s2, eta=0.8)
+    assert float(loss) < 0.3 * np.mean(first)
+    assert r.shape == (256,) and float(r.min()) >= 0 and float(r.max()) <= 0.8
+
+
+def test_sicm_reward_is_eq4_before_the_update():
+    from acder_lite.rewards import intrinsic_reward
+    torch.manual_seed(1)
+    m = SICM(5, 2, hidden=16)
+    s, a, s2 = torch.randn(8, 5), torch.randn(8, 2), torch.randn(8, 5)
+    with torch.no_grad():
+        want = intrinsic_reward(m(s, a).numpy(), s2.numpy(), 0.8)
+    r, _ = m.step(s, a, s2, 0.8)
+    np.testing.assert_allclose(r.numpy(), want, rtol=1e-5)

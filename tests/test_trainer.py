@@ -1,0 +1,90 @@
+import csv
+import os
+
+import numpy as np
+import pytest
+
+from acder_lite.config import METHODS
+from acder_lite.trainer import Trainer
+
+from conftest import tiny_config
+
+WALL = {"wall_s"}
+
+
+def rows_of(path):
+    with open(path) as f:
+        return [{k: v for k, v in r.items() if k not in WALL} for r in csv.DictReader(f)]
+
+
+def test_same_seed_same_progress(tmp_path):
+    for name in ("a", "b"):
+        Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=2), str(tmp_path / name)).train(False)
+    a, b = rows_of(tmp_path / "a" / "progress.csv"), rows_of(tmp_path / "b" / "progress.csv")
+    assert len(a) == 2 and a == b
+    c = tmp_path / "c"
+    Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=2, seed=1), str(c)).train(False)
+    assert rows_of(c / "progress.csv") != a
+
+
+@pytest.mark.parametrize("method", ["her", "acder", "her-per"])
+def test_resumed_run_equals_uninterrupted(tmp_path, method):
+    kw = dict(method=method, env="FetchPush-v4", eval_every_cycles=2)
+    full = tmp_path / "full"
+    Trainer(tiny_config(epochs=4, **kw), str(full)).train(False)
+    part = tmp_path / "part"
+    Trainer(tiny_config(epochs=4, **kw), str(part)).train(False, max_cycles=2 * 3)
+    assert not (part / "done.json").exists()
+    from acder_lite.io import load_torch
+    ckpt = load_torch(str(part / "checkpoint.pt"))
+    cfg = tiny_config(epochs=4, **kw)
+    tr = Trainer(cfg, str(part))
+    tr.load_state_dict(ckpt)
+    tr.train(False)
+    assert rows_of(part / "progress.csv") == rows_of(full / "progress.csv")
+
+
+def test_checkpoint_holds_buffer_and_rng(tmp_path):
+    tr = Trainer(tiny_config(epochs=1), str(tmp_path))
+    tr.train(False)
+    from acder_lite.io import load_torch
+    ck = load_torch(str(tmp_path / "checkpoint.pt"))
+    assert ck["buffer"]["n"] == tr.buffer.n == 3 * 2
+    np.testing.assert_array_equal(ck["buffer"]["state"], tr.buffer.state[: tr.buffer.n])
+    assert set(ck["rng"]) == {"numpy", "torch", "envs", "test_envs"}
+    assert os.path.getsize(tmp_path / "policy.pt") < os.path.getsize(tmp_path / "checkpoint.pt")
+
+
+@pytest.mark.parametrize("method", sorted(m for m in METHODS if m != "her-ebp"))
+def test_every_method_runs_and_logs_its_diagnostics(tmp_path, method):
+    tr = Trainer(tiny_config(method=method, env="FetchPush-v4", epochs=1), str(tmp_path))
+    rows = tr.train(False)
+    header = open(tmp_path / "progress.csv").readline().strip().split(",")
+    assert header[:6] == ["epoch", "cycle", "episodes", "env_steps", "test_success", "train_success"]
+    sw = METHODS[method]
+    assert ("r_int_mean" in header) == (sw["curiosity"] != "none")
+    assert ("alpha" in header) == sw["start_states"]
+    assert ("lambda_mean" in header) == sw["goal_factor"]
+    if sw["curiosity"] != "none":
+        assert 0 < rows[-1]["r_int_mean"] <= tr.cfg.eta + 1e-6   # float32 clip
+    if sw["goal_factor"]:
+        assert 1.0 <= rows[-1]["lambda_mean"] <= 1.5
+
+
+def test_ebp_on_push_and_clip_range():
+    tr = Trainer(tiny_config(method="her-ebp", env="FetchPush-v4", epochs=1))
+    tr.train(False)
+    assert tr.ebp is not None
+    acder = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1))
+    assert acder.clip_return == pytest.approx((-1.5 / 0.02, 0.8 / 0.02))
+    assert tr.clip_return == pytest.approx((-50.0, 0.0))
+
+
+def test_start_states_are_used(tmp_path):
+    """A run whose pool is filled restarts episodes from stored states (share ~ alpha)."""
+    tr = Trainer(tiny_config(method="acder", env="FetchReach-v4", epochs=3, cycles=4))
+    tr.train(False)
+    assert len(tr.selector.pool) > 0
+    assert all(tr.buffer.success[:tr.buffer.n].any() for _ in [0])
+    novel = [r["novel_start_share"] for r in tr.rows]
+    assert max(novel) > 0
