@@ -24,3 +24,19 @@ def budgets(fast: bool, **pairs) -> dict:
     chosen = {k: (v[1] if fast else v[0]) for k, v in pairs.items()}
     print(f"ACDER_FAST={int(fast)}: " + ", ".join(f"{k}={v}" for k, v in chosen.items()))
     return chosen
+
+
+def glue(name: str, value, display: bool = False):
+    """`myst_nb.glue` for values quoted in prose, with display off.
+
+    Numpy scalars become Python numbers first (numpy 2's repr, `np.float64(0.5)`, cannot be
+    formatted by `{glue:text}` with a format spec). Strings become Markdown, to be pasted with
+    `{glue:md}` (`{glue:text}` would show their quotes)."""
+    import numpy as np
+    from IPython.display import Markdown
+    from myst_nb import glue as _glue
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, str):
+        value = Markdown(value)
+    return _glue(name, value, display=display)

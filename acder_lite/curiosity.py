@@ -21,7 +21,7 @@ class SICM(nn.Module):
     def __init__(self, s_dim: int, act_dim: int, hidden: int = 256, lr: float = 1e-3):
         super().__init__()
         self.net = mlp([s_dim + act_dim, hidden, s_dim])
-        self.opt = torch.optim.Adam(self.net.parameters(), lr=lr)
+        self.opt = torch.optim.Adam(self.net.parameters(), lr=lr, fused=True)
 
     def forward(self, s: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
         return self.net(torch.cat([s, a], dim=-1))
@@ -62,7 +62,7 @@ class ICM(nn.Module):
         self.phi = mlp([s_dim, hidden, feat_dim])
         self.inverse = mlp([2 * feat_dim, hidden, act_dim])
         self.forward_model = mlp([feat_dim + act_dim, hidden, feat_dim])
-        self.opt = torch.optim.Adam(self.parameters(), lr=lr)
+        self.opt = torch.optim.Adam(self.parameters(), lr=lr, fused=True)
 
     def losses(self, s, a, s2) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """(per-row forward error, inverse loss, forward loss)."""

