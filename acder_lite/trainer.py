@@ -404,9 +404,21 @@ class Trainer:
 
     # ----- files
     def write_config(self) -> None:
-        write_json(os.path.join(self.out_dir, "config.json"),
-                   dict(config=self.cfg.to_dict(), command=" ".join(self.command), seed=self.cfg.seed,
-                        versions=versions(), threads=torch.get_num_threads()))
+        """config.json: the config, the command, versions. A resumed run keeps the first command
+        and appends its own under "resumes"."""
+        path = os.path.join(self.out_dir, "config.json")
+        here = dict(command=" ".join(self.command), at_cycle=self.cycle, versions=versions(),
+                    threads=torch.get_num_threads())
+        if self.cycle and os.path.exists(path):
+            import json
+            with open(path) as f:
+                d = json.load(f)
+            d["config"] = self.cfg.to_dict()
+            d.setdefault("resumes", []).append(here)
+        else:
+            d = dict(config=self.cfg.to_dict(), command=here["command"], seed=self.cfg.seed,
+                     versions=here["versions"], threads=here["threads"])
+        write_json(path, d)
 
     def policy_state(self) -> dict:
         return self.policy.state_dict(self.cfg.env, self.cfg.method)

@@ -160,28 +160,41 @@ def _set_geom(node, m, i: int, cell: float | None) -> None:
     G = mujoco.mjtGeom
     if t == G.mjGEOM_MESH:
         v, f = mesh_arrays(m, m.geom_dataid[i], cell)
-        node.set_object(mg.TriangularMeshGeometry(v, f), mat)
+        _set_object(node, mg.TriangularMeshGeometry(v, f), mat)
     elif t == G.mjGEOM_BOX:
-        node.set_object(mg.Box(2 * size), mat)
+        _set_object(node, mg.Box(2 * size), mat)
     elif t == G.mjGEOM_SPHERE:
-        node.set_object(mg.Sphere(size[0]), mat)
+        _set_object(node, mg.Sphere(size[0]), mat)
     elif t == G.mjGEOM_ELLIPSOID:
-        node.set_object(mg.Ellipsoid(size[:3]), mat)
+        _set_object(node, mg.Ellipsoid(size[:3]), mat)
     elif t in (G.mjGEOM_CYLINDER, G.mjGEOM_CAPSULE):
-        node["body"].set_object(mg.Cylinder(2 * size[1], size[0]), mat)
+        _set_object(node["body"], mg.Cylinder(2 * size[1], size[0]), mat)
         node["body"].set_transform(_rot_x(np.pi / 2))
         if t == G.mjGEOM_CAPSULE:
             for k, z in (("cap0", -size[1]), ("cap1", size[1])):
-                node[k].set_object(mg.Sphere(size[0]), mat)
+                _set_object(node[k], mg.Sphere(size[0]), mat)
                 T = np.eye(4)
                 T[2, 3] = z
                 node[k].set_transform(T)
     elif t == G.mjGEOM_PLANE:
         sx, sy = (s if s > 0 else 5.0 for s in size[:2])
-        node["plane"].set_object(mg.Box([2 * sx, 2 * sy, 0.01]), mat)
+        _set_object(node["plane"], mg.Box([2 * sx, 2 * sy, 0.01]), mat)
         T = np.eye(4)
         T[2, 3] = -0.005
         node["plane"].set_transform(T)
+
+
+def _set_object(node, geometry, material) -> None:
+    """`node.set_object` with uuids derived from the node's path instead of random ones, so a
+    scene written twice from the same rollout is the same file (no noise in git diffs)."""
+    import uuid
+
+    import meshcat.geometry as mg
+    path = node.path.lower()
+    obj = mg.Mesh(geometry, material)
+    for part, name in ((geometry, "geometry"), (material, "material"), (obj, "object")):
+        part.uuid = str(uuid.uuid5(uuid.NAMESPACE_URL, f"{path}#{name}"))
+    node.set_object(obj)
 
 
 def _pose(pos, mat) -> np.ndarray:
@@ -231,7 +244,7 @@ def scene_from_recording(rec: Recording, vis=None, cell: float | None = 0.012, m
                     frame["fetch"][f"geom{i}"].set_transform(_pose(rec.xpos[k, i], rec.xmat[k, i]))
     radius, rgba = _site(m, "target0")
     target = root["target"]
-    target.set_object(mg.Sphere(radius), _material(rgba))
+    _set_object(target, mg.Sphere(radius), _material(rgba))
     target.set_transform(_pose(rec.goal[0], np.eye(3)))
     if F > 1 and np.ptp(rec.goal, axis=0).max() > 1e-9:
         for k in range(F):
@@ -262,7 +275,7 @@ def add_markers(vis, points, colors=None, radius: float = 0.012, name: str = "ma
     vis["fetch"][name].delete()
     for k, (p, c) in enumerate(zip(points, colors)):
         node = vis["fetch"][name][f"m{k}"]
-        node.set_object(mg.Sphere(radius), _material(np.r_[c[:3], 1.0]))
+        _set_object(node, mg.Sphere(radius), _material(np.r_[c[:3], 1.0]))
         node.set_transform(_pose(p, np.eye(3)))
 
 
