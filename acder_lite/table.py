@@ -109,13 +109,20 @@ def load_runs(results_dir: str | Path) -> list[dict]:
     return runs
 
 
+def _is_running(run: dict, last: float) -> bool:
+    """No done.json and the last evaluation is before the planned budget: the run is still going."""
+    return (not run.get("done")) and run.get("budget") is not None and last < run["budget"]
+
+
 def summarize(runs: list[dict], thresholds: dict[str, float] = PAPER_THRESHOLDS) -> list[dict]:
     """Per (method, task) with a threshold: episodes-to-threshold over seeds, beside the paper.
 
     Each row: method, env, threshold, n (seeds), k (seeds that reached it), episodes (per seed,
     None where never reached), mean and std (over the k seeds that reached it, std with ddof=1,
-    0 for one seed; None when k = 0), budget (largest planned budget among the seeds) and paper
-    (Table I's number, None if absent). Rows in Table I's order (methods, then tasks).
+    0 for one seed; None when k = 0), budget (largest planned budget among the seeds), paper
+    (Table I's number, None if absent), so_far (largest episodes evaluated by a seed), best (best
+    test success of any seed, None without evaluations) and running (seeds still training: no
+    done.json and last evaluation before the budget). Rows in Table I's order (methods, then tasks).
     """
     groups: dict[tuple[str, str], list[dict]] = {}
     for r in runs:
@@ -132,13 +139,18 @@ def summarize(runs: list[dict], thresholds: dict[str, float] = PAPER_THRESHOLDS)
             eps = [episodes_to_threshold(r["rows"], thresholds[e]) for r in seeds]
             hit = np.array([x for x in eps if x is not None], dtype=float)
             budgets = [r["budget"] for r in seeds if r["budget"] is not None]
+            last = [max((x["episodes"] for x in r["rows"]), default=0.0) for r in seeds]
+            best = [x["test_success"] for r in seeds for x in r["rows"]
+                    if isinstance(x.get("test_success"), float) and not math.isnan(x["test_success"])]
             out.append(dict(
                 method=m, env=e, threshold=thresholds[e], n=len(seeds), k=len(hit),
                 seeds=[r["seed"] for r in seeds], episodes=eps,
                 mean=float(hit.mean()) if len(hit) else None,
                 std=float(hit.std(ddof=1)) if len(hit) > 1 else (0.0 if len(hit) else None),
                 budget=max(budgets) if budgets else None,
-                paper=PAPER_TABLE_I.get(m, {}).get(e)))
+                paper=PAPER_TABLE_I.get(m, {}).get(e),
+                so_far=max(last, default=0.0), best=max(best, default=None),
+                running=sum(_is_running(r, x) for r, x in zip(seeds, last))))
     return out
 
 
@@ -149,32 +161,48 @@ def _int(x: float | None) -> str:
 def _cell(row: dict | None, paper: int | None, has_paper_row: bool) -> str:
     tail = f" · paper {_int(paper)}" if has_paper_row else ""
     if row is None:
-        return "–" if has_paper_row and paper is None else "no runs" + tail
+        return "–" if has_paper_row and paper is None else "not run" + tail
     if row["k"] == 0:
+        if row.get("running"):
+            best = "" if row.get("best") is None else f", best {row['best']:.2f}"
+            return (f"not yet: {_int(row['so_far'])} of {_int(row['budget'])} so far{best} "
+                    f"(0/{row['n']}, {row['running']} running)" + tail)
         return f"not reached in {_int(row['budget'])} (0/{row['n']})" + tail
     return f"{_int(row['mean'])} ± {_int(row['std'])} ({row['k']}/{row['n']})" + tail
 
 
 def _ratio(her: dict | None, acder: dict | None) -> str:
     """HER's episodes over ACDER's; '> x' when HER never reached it (a lower bound from its budget)."""
-    if her is None or acder is None or acder["k"] == 0:
+    if her is None or acder is None:
+        return "not run"
+    if acder["k"] == 0:
         return "–"
     if her["k"] == 0:
-        return f"> {her['budget'] / acder['mean']:.1f}" if her["budget"] else "–"
+        # a lower bound: the budget if HER has finished, the episodes so far if it is still running
+        bound = her.get("so_far") if her.get("running") else her["budget"]
+        return f"> {bound / acder['mean']:.1f}" if bound else "–"
     ratio = f"{her['mean'] / acder['mean']:.1f}"
     if her["k"] < her["n"]:
         ratio = "≥ " + ratio  # the seeds that never reached it would only raise HER's mean
     return ratio
 
 
-def to_markdown(summary: list[dict]) -> str:
-    """A markdown Table I (ours beside the paper's) and the HER/ACDER ratio per task."""
-    if not summary:
+def to_markdown(summary: list[dict], envs=None, methods=None) -> str:
+    """A markdown Table I (ours beside the paper's) and the HER/ACDER ratio per task.
+
+    Columns are the tasks (rows the methods) present in `summary`, or all of `envs` (`methods`)
+    when given, e.g. `TASKS` and `PAPER_TABLE_I` for the paper's full table: cells without runs
+    then read "not run".
+    """
+    if not summary and envs is None and methods is None:
         return "_No runs with a paper threshold._\n"
     by = {(r["method"], r["env"]): r for r in summary}
-    methods = _order({r["method"] for r in summary}, list(METHOD_LABELS))
-    envs = _order({r["env"] for r in summary}, list(TASKS))
-    thr = {r["env"]: r["threshold"] for r in summary}
+    methods = _order(set(methods) | {r["method"] for r in summary} if methods is not None
+                     else {r["method"] for r in summary}, list(METHOD_LABELS))
+    envs = _order(set(envs) | {r["env"] for r in summary} if envs is not None
+                  else {r["env"] for r in summary}, list(TASKS))
+    thr = {e: PAPER_THRESHOLDS.get(e, float("nan")) for e in envs}
+    thr.update({r["env"]: r["threshold"] for r in summary})
     head = [f"{TASK_LABELS.get(e, e)} ({thr[e]:.0%})" for e in envs]
     lines = ["Training episodes until the test success rate first reaches the threshold: mean ± std "
              "over the seeds that reached it (seeds reached / seeds run) · the paper's Table I.", "",
@@ -183,8 +211,10 @@ def to_markdown(summary: list[dict]) -> str:
     for m in methods:
         cells = [_cell(by.get((m, e)), PAPER_TABLE_I.get(m, {}).get(e), m in PAPER_TABLE_I) for e in envs]
         lines.append(f"| {METHOD_LABELS.get(m, m)} (`{m}`) | " + " | ".join(cells) + " |")
-    budgets = [f"{TASK_LABELS.get(e, e)} {_int(max((r['budget'] for r in summary if r['env'] == e and r['budget']), default=None))}"
-               for e in envs]
+    def _budget_of(e):
+        b = max((r["budget"] for r in summary if r["env"] == e and r["budget"]), default=None)
+        return "not run" if b is None and not any(r["env"] == e for r in summary) else _int(b)
+    budgets = [f"{TASK_LABELS.get(e, e)} {_budget_of(e)}" for e in envs]
     lines += ["", "Budget (training episodes per run, largest over methods): " + ", ".join(budgets) + ".",
               "", "| HER / ACDER episodes | " + " | ".join(TASK_LABELS.get(e, e) for e in envs) + " |",
               "|---|" + "---|" * len(envs)]
