@@ -52,6 +52,12 @@ def _given(args) -> dict:
             if f.name not in _NOT_OPTIONS and getattr(args, f.name, None) is not None}
 
 
+def _command_line() -> list[str]:
+    """The command as a reader would retype it (sys.argv[0] is the path of __main__.py)."""
+    import shlex
+    return ["python", "-m", "acder_lite"] + [shlex.quote(a) for a in sys.argv[1:]]
+
+
 def cmd_train(args) -> int:
     from .io import load_torch
     from .trainer import Trainer
@@ -67,7 +73,7 @@ def cmd_train(args) -> int:
                 raise ConfigError(f"{k}={v!r} differs from the checkpoint's {getattr(cfg, k)!r}; "
                                   f"a resumed run may change only: {', '.join(sorted(_RESUMABLE))}")
         out = args.resume
-        trainer = Trainer(cfg, out, command=sys.argv)
+        trainer = Trainer(cfg, out, command=_command_line())
         trainer.load_state_dict(ckpt)
         trainer.done = trainer.done and trainer.cycle >= cfg.epochs * cfg.cycles
     else:
@@ -78,7 +84,7 @@ def cmd_train(args) -> int:
                              f"or --resume {args.out} to continue it")
         cfg = Config(**given)
         out = args.out
-        trainer = Trainer(cfg, out, command=sys.argv)
+        trainer = Trainer(cfg, out, command=_command_line())
     _interrupt_on_signals()
     try:
         rows = trainer.train(progress=not args.quiet)
