@@ -122,7 +122,8 @@ def summarize(runs: list[dict], thresholds: dict[str, float] = PAPER_THRESHOLDS)
     0 for one seed; None when k = 0), budget (largest planned budget among the seeds), paper
     (Table I's number, None if absent), so_far (largest episodes evaluated by a seed), best (best
     test success of any seed, None without evaluations) and running (seeds still training: no
-    done.json and last evaluation before the budget). Rows in Table I's order (methods, then tasks).
+    done.json and last evaluation before the budget); pending counts the running seeds that have not
+    reached the threshold yet (they may still change mean and std). Rows in Table I's order.
     """
     groups: dict[tuple[str, str], list[dict]] = {}
     for r in runs:
@@ -150,7 +151,8 @@ def summarize(runs: list[dict], thresholds: dict[str, float] = PAPER_THRESHOLDS)
                 budget=max(budgets) if budgets else None,
                 paper=PAPER_TABLE_I.get(m, {}).get(e),
                 so_far=max(last, default=0.0), best=max(best, default=None),
-                running=sum(_is_running(r, x) for r, x in zip(seeds, last))))
+                running=sum(_is_running(r, x) for r, x in zip(seeds, last)),
+                pending=sum(_is_running(r, x) and e_ is None for r, x, e_ in zip(seeds, last, eps))))
     return out
 
 
@@ -168,7 +170,8 @@ def _cell(row: dict | None, paper: int | None, has_paper_row: bool) -> str:
             return (f"not yet: {_int(row['so_far'])} of {_int(row['budget'])} so far{best} "
                     f"(0/{row['n']}, {row['running']} running)" + tail)
         return f"not reached in {_int(row['budget'])} (0/{row['n']})" + tail
-    return f"{_int(row['mean'])} ± {_int(row['std'])} ({row['k']}/{row['n']})" + tail
+    pending = f", {row['pending']} running" if row.get("pending") else ""
+    return f"{_int(row['mean'])} ± {_int(row['std'])} ({row['k']}/{row['n']}{pending})" + tail
 
 
 def _ratio(her: dict | None, acder: dict | None) -> str:
@@ -182,8 +185,10 @@ def _ratio(her: dict | None, acder: dict | None) -> str:
         bound = her.get("so_far") if her.get("running") else her["budget"]
         return f"> {bound / acder['mean']:.1f}" if bound else "–"
     ratio = f"{her['mean'] / acder['mean']:.1f}"
-    if her["k"] < her["n"]:
+    if her["k"] < her["n"] and not acder.get("pending"):
         ratio = "≥ " + ratio  # the seeds that never reached it would only raise HER's mean
+    if her.get("pending") or acder.get("pending"):
+        ratio += " so far"  # seeds still training may move either mean
     return ratio
 
 
