@@ -98,7 +98,7 @@ class Policy:
         return cls(actor, o_norm, g_norm, d["clip_obs"])
 
 
-def run_episodes(envs: list, act, T: int, rng=None, starts=None) -> dict:
+def run_episodes(envs: list, act, T: int, starts=None) -> dict:
     """Roll out one episode in each env, stepping them together with one batched `act(o, g)` call.
 
     `starts(i)` may return a stored start (dict with state, goal or None) for env i. Returns arrays
@@ -221,6 +221,7 @@ class Trainer:
         return np.where(pick[:, None], rand, u).astype(np.float32)
 
     def _start(self, i: int):
+        """Where env i's next episode starts: a stored candidate (probability alpha) or None."""
         cand = self.selector.draw(self.rng)
         if cand is None:
             return None
