@@ -63,11 +63,13 @@ def run_bench(args) -> int:
     flops = update_flops(tr)
     for _ in range(3):
         tr.update_step()
-    t0 = time.perf_counter()
-    n_upd = 20
-    for _ in range(n_upd):
-        tr.update_step()
-    upd_s = (time.perf_counter() - t0) / n_upd
+    blocks = []  # median of 5 blocks of 20 updates: this machine is noisy
+    for _ in range(5):
+        t0 = time.perf_counter()
+        for _ in range(20):
+            tr.update_step()
+        blocks.append((time.perf_counter() - t0) / 20)
+    upd_s = float(np.median(blocks))
     upd_gflops = flops / upd_s / 1e9
     mm = matmul_gflops(args.threads)
     print(f"env={cfg.env} method={cfg.method} workers={W} threads={args.threads} "

@@ -160,7 +160,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--env", default="FetchPush-v4")
     b.add_argument("--method", default="her")
     b.add_argument("--workers", type=int, default=4)
-    b.add_argument("--cycles", type=int, default=3, help="timed cycles (after one warm-up cycle)")
+    b.add_argument("--cycles", type=int, default=6, help="timed cycles (after one warm-up cycle)")
     b.add_argument("--threads", type=int, default=2)
     b.set_defaults(func=cmd_bench)
 
