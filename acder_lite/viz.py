@@ -287,11 +287,8 @@ def save_scene_html(vis, path: str) -> int:
     html = vis.static_html()
     if "https://" in html.split("<script>", 1)[0]:
         raise RuntimeError("scene page references the network")
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    tmp = path + ".tmp"
-    with open(tmp, "w", encoding="utf-8") as f:
-        f.write(html)
-    os.replace(tmp, path)
+    from .io import _atomic
+    _atomic(path, lambda f: f.write(html.encode("utf-8")))
     return os.path.getsize(path)
 
 
