@@ -348,6 +348,7 @@ class Trainer:
             row.update(alpha=self.selector.alpha, pool_size=len(self.selector.pool))
         if self.per is not None:
             row["per_beta"] = self.per_beta
+        row = {k: row[k] for k in self.columns}  # only this method's diagnostics
         self.rows.append(row)
         self._reset_diag()
         if self.out_dir:
