@@ -1,4 +1,4 @@
-"""`python -m acder_lite {train,eval,bench,sweep,table}`.
+"""`python -m acder_lite {train,eval,bench,sweep,table,diagnose}`.
 
 Bad input exits with code 2 and one line naming the field and what is allowed; no traceback.
 """
@@ -164,12 +164,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--threads", type=int, default=2)
     b.set_defaults(func=cmd_bench)
 
-    for name, modname in (("sweep", "sweep"), ("table", "table")):
-        try:
-            mod = __import__(f"acder_lite.{modname}", fromlist=["run"])
-        except ImportError:
-            continue
-        s = sub.add_parser(name, help=(mod.__doc__ or "").strip().splitlines()[0] if mod.__doc__ else None)
+    from . import diagnose, sweep, table
+    for name, mod in (("sweep", sweep), ("table", table), ("diagnose", diagnose)):
+        s = sub.add_parser(name, help=mod.__doc__.strip().splitlines()[0])
         mod.add_arguments(s)
         s.set_defaults(func=mod.run)
     return p

@@ -64,6 +64,28 @@ def horizon(env_id: str) -> int:
     return int(gym.spec(env_id).max_episode_steps)
 
 
+def obs_names(env) -> list[str]:
+    """A name for each entry of the Fetch observation vector, in the order `_get_obs` builds it.
+
+    Reach has no object: its 10 entries are the gripper's position, finger state and velocities.
+    Push and Pick&Place add the object's position, its position relative to the gripper, its
+    rotation (Euler angles) and its linear and angular velocities (25 entries).
+    """
+    xyz = lambda name: [f"{name}.{c}" for c in "xyz"]
+    has_object = env.has_object
+    names = xyz("grip_pos")
+    if has_object:
+        names += xyz("object_pos") + xyz("object_rel_pos")
+    names += ["finger_l", "finger_r"]
+    if has_object:
+        names += xyz("object_rot") + xyz("object_velp") + xyz("object_velr")
+    names += xyz("grip_velp") + ["finger_vel_l", "finger_vel_r"]
+    n = env._get_obs()["observation"].size
+    if len(names) != n:  # a changed gymnasium-robotics layout must not be mislabelled silently
+        raise RuntimeError(f"obs_names: {len(names)} names for an observation of {n} entries")
+    return names
+
+
 def state_size(env) -> int:
     return int(mujoco.mj_stateSize(env.model, STATE_SPEC))
 

@@ -1,0 +1,164 @@
+"""diagnose an ACDER run from its checkpoint: what S-ICM finds novel and what the start pool holds
+
+`python -m acder_lite diagnose results/FetchPush-v4/acder/seed1` loads the run's `checkpoint.pt`,
+draws minibatches from its replay buffer exactly as training does, and reports
+
+- **curiosity**: how the S-ICM error 1/2 ||F(s, a) - s'||^2 (Eq. 4 before the clip) is spread, the
+  share of rows at the clip eta, overall and among rows of successful episodes (the rows the
+  start-state selection chooses from), and which state entries carry the error;
+- **pool**: where the stored start states put the gripper and the object.
+
+Nothing is trained and nothing in the run folder is written, except the `--json` file if asked.
+Two traps it exists to show: when many rows sit at the clip, "the largest intrinsic reward" is a
+tie and the candidate is in effect any clipped row of a successful episode; and a candidate is a
+state *inside* a successful episode, not its end, so the gripper may be anywhere.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+
+import numpy as np
+import torch
+
+from . import envs as E
+from .config import Config, ConfigError
+from .curiosity import SICM
+from .io import CheckpointError, load_torch, write_json
+
+
+def state_names(trainer) -> list[str]:
+    """Names of the S-ICM state s = (o, g): the observation entries, then the goal's."""
+    return E.obs_names(trainer.envs[0]) + [f"goal.{c}" for c in "xyz"][: trainer.dims["g"]]
+
+
+def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
+    """S-ICM's prediction errors on `batches` training minibatches, without updating the model.
+
+    Returns the share of rows whose error reaches eta (so Eq. 4 clips them), the same share among
+    rows of successful episodes, error quantiles, and the `top` state entries by mean squared error.
+    """
+    if not isinstance(trainer.curiosity, SICM):
+        raise ConfigError(f"method={trainer.cfg.method!r} has no S-ICM to diagnose; allowed: acder, "
+                          "acder-no-goal-factor, acder-no-start-states")
+    eta = trainer.cfg.eta
+    errs, succ, sq = [], [], 0.0
+    with torch.no_grad():
+        for _ in range(batches):
+            b = trainer.sample_batch()
+            x = trainer.policy.inputs(b["o"], b["g"])
+            x2 = trainer.policy.inputs(b["o2"], b["g"])
+            u = torch.as_tensor(b["u"], dtype=torch.float32)
+            err, pred = trainer.curiosity.errors(x, u, x2)
+            errs.append(err.numpy())
+            succ.append(trainer.buffer.success[b["ep"]])
+            sq = sq + (pred - x2).pow(2).mean(0).numpy() / batches
+    err, succ = np.concatenate(errs), np.concatenate(succ)
+    names = state_names(trainer)
+    order = np.argsort(-sq)[:top]
+    return dict(
+        eta=eta, rows=int(err.size), successful_rows=int(succ.sum()),
+        share_at_clip=float((err >= eta).mean()),
+        share_at_clip_successful=float((err[succ] >= eta).mean()) if succ.any() else float("nan"),
+        error_quantiles={str(q): float(v) for q, v in zip((0.1, 0.5, 0.9, 0.99),
+                                                           np.quantile(err, [0.1, 0.5, 0.9, 0.99]))},
+        top_entries=[(names[i], float(sq[i])) for i in order],
+        share_of_error_in_top=float(sq[order].sum() / max(sq.sum(), 1e-12)),
+    )
+
+
+def pool_profile(trainer, far: float = 0.2) -> dict:
+    """Where the pool's start states put the gripper (and the object, on tasks that have one).
+
+    `far` (metres): a candidate whose gripper is farther than this from the object (or, on Reach,
+    from the candidate's goal) counts as far.
+    """
+    if trainer.selector is None:
+        raise ConfigError(f"method={trainer.cfg.method!r} has no start-state pool; allowed: acder, "
+                          "acder-no-curiosity, acder-no-goal-factor")
+    pool = list(trainer.selector.pool)
+    env = E.make_env(trainer.cfg.env, seed=0)
+    grip, other, r_int = [], [], []
+    for c in pool:
+        if c["state"].size != E.state_size(env):
+            raise CheckpointError(f"the pool's states have {c['state'].size} numbers, not envs.STATE_SPEC's "
+                                  f"{E.state_size(env)}; allowed: a checkpoint written by this version")
+        E.set_state(env, c["state"])
+        o = env._get_obs()["observation"]
+        grip.append(o[:3])
+        other.append(o[3:6] if env.has_object else c["goal"])
+        r_int.append(c["r_int"])
+    out = dict(size=len(pool), far=far, eta=trainer.cfg.eta)
+    if not pool:
+        return out
+    grip, other, r_int = np.array(grip), np.array(other), np.array(r_int)
+    d = np.linalg.norm(grip - other, axis=1)
+    out.update(
+        share_at_clip=float((r_int >= trainer.cfg.eta).mean()),
+        distance_to=("object" if env.has_object else "goal"),
+        distance_median=float(np.median(d)), distance_max=float(d.max()), share_far=float((d > far).mean()),
+        gripper_z_min=float(grip[:, 2].min()), gripper_z_median=float(np.median(grip[:, 2])),
+    )
+    return out
+
+
+def diagnose(run_dir: str, batches: int = 10) -> dict:
+    """Both profiles of the run in `run_dir` (whichever its method has)."""
+    from .trainer import Trainer
+    path = os.path.join(run_dir, "checkpoint.pt")
+    ckpt = load_torch(path)
+    if "buffer" not in ckpt:
+        raise CheckpointError(f"checkpoint {path!r} holds a policy only; allowed: a checkpoint.pt written by train")
+    cfg = Config.from_dict(ckpt["config"])
+    cfg.threads = 1
+    tr = Trainer(cfg)
+    tr.load_state_dict(ckpt)
+    out = dict(run=run_dir, method=cfg.method, env=cfg.env, episodes=tr.episodes,
+               test_success=tr.success_rate)
+    if isinstance(tr.curiosity, SICM):
+        out["curiosity"] = curiosity_profile(tr, batches)
+    if tr.selector is not None:
+        out["pool"] = pool_profile(tr)
+    if len(out) == 5:
+        raise ConfigError(f"method={cfg.method!r} has neither S-ICM nor a start-state pool; allowed: "
+                          "acder and its ablations")
+    return out
+
+
+def to_text(d: dict) -> str:
+    lines = [f"{d['run']}: {d['method']} on {d['env']}, {d['episodes']:,} episodes, "
+             f"test success {d['test_success']:.3f}"]
+    c = d.get("curiosity")
+    if c:
+        q = c["error_quantiles"]
+        lines += [f"curiosity: {c['rows']:,} rows; error median {q['0.5']:.3g}, 90% {q['0.9']:.3g}, "
+                  f"99% {q['0.99']:.3g}; at the clip eta={c['eta']}: {c['share_at_clip']:.2f} of all rows, "
+                  f"{c['share_at_clip_successful']:.2f} of the {c['successful_rows']:,} rows of successful episodes",
+                  f"  largest errors ({c['share_of_error_in_top']:.0%} of the total): "
+                  + ", ".join(f"{n} {v:.3g}" for n, v in c["top_entries"])]
+    p = d.get("pool")
+    if p:
+        if p["size"] == 0:
+            lines.append("pool: empty")
+        else:
+            lines.append(f"pool: {p['size']} candidates, {p['share_at_clip']:.2f} at the clip; gripper to "
+                         f"{p['distance_to']}: median {p['distance_median']:.3f} m, max {p['distance_max']:.3f} m, "
+                         f"{p['share_far']:.2f} farther than {p['far']} m; gripper height min "
+                         f"{p['gripper_z_min']:.3f} m, median {p['gripper_z_median']:.3f} m")
+    return "\n".join(lines)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("run", help="a run folder holding checkpoint.pt")
+    parser.add_argument("--batches", type=int, default=10, help="minibatches to draw (default: 10)")
+    parser.add_argument("--json", metavar="FILE", help="also write the numbers to FILE")
+
+
+def run(args) -> int:
+    if args.batches < 1:
+        raise ConfigError(f"batches={args.batches} is not allowed: an integer >= 1")
+    d = diagnose(args.run, args.batches)
+    print(to_text(d))
+    if args.json:
+        write_json(args.json, d)
+    return 0
