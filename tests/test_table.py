@@ -130,3 +130,23 @@ def test_cli(results, tmp_path, capsys):
         assert T.run(_args(bad)) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and str(bad) in err
+
+
+def test_seed_crossings(results):
+    runs = T.load_runs(results)
+    md = T.seed_crossings(runs, "FetchReach-v4", ["her", "acder"], levels=(0.5, 1.0))
+    lines = md.strip().splitlines()
+    assert lines[0] == "| method | seed | 50% | 100% | evaluated to |"
+    # her seeds in order, then acder; seed 1 reaches 0.5 at i=13 (0.52), 1.0 at i=25
+    assert lines[2] == "| DDPG+HER | 0 | 400 | 600 | 1,000 (training) |"  # below its budget, no done.json
+    assert lines[3] == "| DDPG+HER | 1 | 520 | 1,000 | 2,000 |"
+    # seed 2 was evaluated up to its budget (5 epochs = 2,000 episodes) without reaching 1.0
+    assert lines[4] == "| DDPG+HER | 2 | 200 | never | 2,000 |"
+    assert lines[5].startswith("| DDPG+ACDER | 0 | 200 | 200 |")
+    assert len(lines) == 2 + 5
+
+
+def test_seed_crossings_running(tmp_path):
+    make_run(tmp_path, "FetchPush-v4", "acder", 3, [(400, 0.6), (800, 0.7)], epochs=50)
+    md = T.seed_crossings(T.load_runs(tmp_path), "FetchPush-v4", ["acder"])
+    assert md.strip().splitlines()[-1] == "| DDPG+ACDER | 3 | 400 | not yet | not yet | 800 (training) |"
