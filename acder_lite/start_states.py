@@ -24,7 +24,10 @@ def novel_start_ratio(success_rate: float, alpha0: float) -> float:
 def select_candidate(r_int: np.ndarray, episode_success: np.ndarray) -> int | None:
     """Row of the minibatch with the largest intrinsic reward among rows whose episode succeeded.
 
-    None when no row comes from a successful episode.
+    None when no row comes from a successful episode. Trap: r_int is clipped at eta (Eq. 4), and on
+    Push a quarter of the eligible rows sit at the clip, so the maximum is usually a tie; argmax
+    then takes the first tied row, and since minibatch rows are in random order, a random one
+    (`python -m acder_lite diagnose RUN` shows how often).
     """
     ok = np.flatnonzero(episode_success)
     if ok.size == 0:
