@@ -15,18 +15,22 @@ ENV_IDS = ("FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4", "FetchSlide-
 OBJECT_ENVS = ("FetchPush-v4", "FetchPickAndPlace-v4", "FetchSlide-v4")
 """Tasks with an object (EBP's energy is defined on the object, so it needs one)."""
 
-# method -> switches. her: HER relabelling; curiosity: none | sicm | icm; goal_factor: Eq. 5-6;
-# start_states: dynamic initial-state selection (Eq. 9); priority: none | per | ebp.
+# method -> switches. her: HER relabelling; curiosity: none | sicm | icm (the module trained on each
+# minibatch); curiosity_reward: r_i is added to the reward; goal_factor: Eq. 5-6; start_states:
+# dynamic initial-state selection (Eq. 9), ranked by S-ICM's r_i; priority: none | per | ebp.
+# Ablation "without curiosity" (Fig. 5): S-ICM still ranks the start-state candidates (section IV-B
+# needs its r_i), but r_i leaves the reward. Without S-ICM no candidate could be chosen, and the
+# ablation would silently lose its start states too.
 METHODS: dict[str, dict] = {
-    "ddpg": dict(her=False, curiosity="none", goal_factor=False, start_states=False, priority="none"),
-    "her": dict(her=True, curiosity="none", goal_factor=False, start_states=False, priority="none"),
-    "her-icm": dict(her=True, curiosity="icm", goal_factor=False, start_states=False, priority="none"),
-    "her-per": dict(her=True, curiosity="none", goal_factor=False, start_states=False, priority="per"),
-    "her-ebp": dict(her=True, curiosity="none", goal_factor=False, start_states=False, priority="ebp"),
-    "acder": dict(her=True, curiosity="sicm", goal_factor=True, start_states=True, priority="none"),
-    "acder-no-curiosity": dict(her=True, curiosity="none", goal_factor=True, start_states=True, priority="none"),
-    "acder-no-goal-factor": dict(her=True, curiosity="sicm", goal_factor=False, start_states=True, priority="none"),
-    "acder-no-start-states": dict(her=True, curiosity="sicm", goal_factor=True, start_states=False, priority="none"),
+    "ddpg": dict(her=False, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none"),
+    "her": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none"),
+    "her-icm": dict(her=True, curiosity="icm", curiosity_reward=True, goal_factor=False, start_states=False, priority="none"),
+    "her-per": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="per"),
+    "her-ebp": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="ebp"),
+    "acder": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=True, priority="none"),
+    "acder-no-curiosity": dict(her=True, curiosity="sicm", curiosity_reward=False, goal_factor=True, start_states=True, priority="none"),
+    "acder-no-goal-factor": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=False, start_states=True, priority="none"),
+    "acder-no-start-states": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=False, priority="none"),
 }
 
 # Paper, section V-B: eta = 0.05 on Reach, 0.8 elsewhere; alpha0 = 0.8 (0.7 on the multi-step task).

@@ -177,7 +177,7 @@ class Trainer:
             self.ebp = EnergyPrioritizer(self.buffer.size)
         # Target clip (DESIGN.md): rewards lambda*r_her + r_i lie in [-lambda_max, r_i_max].
         lam_max = 1.5 if sw["goal_factor"] else 1.0
-        r_i_max = cfg.eta if sw["curiosity"] != "none" else 0.0
+        r_i_max = cfg.eta if sw["curiosity_reward"] else 0.0
         self.clip_return = (-lam_max / (1 - cfg.gamma), r_i_max / (1 - cfg.gamma))
         # progress
         self.cycle = 0               # cycles done in all
@@ -276,7 +276,11 @@ class Trainer:
         return per_beta(self.cycle / max(1, total), self.cfg.per_beta0)
 
     def rewards(self, batch: dict, tb: dict) -> torch.Tensor:
-        """r = lambda * r_her + r_i (Eq. 4-6), with lambda = 1 on rows HER did not relabel."""
+        """r = lambda * r_her + r_i (Eq. 4-6), with lambda = 1 on rows HER did not relabel.
+
+        Also the curiosity module's training step (Eq. 7-8, same minibatch) and the start-state
+        candidate of this minibatch; r_i stays out of r when the method's `curiosity_reward` is off.
+        """
         r = batch["r"].astype(np.float32)
         if self.cfg.switches["goal_factor"]:
             lam = np.ones_like(r)
@@ -287,18 +291,22 @@ class Trainer:
         r_t = torch.from_numpy(r)
         if self.curiosity is not None:
             r_int, loss = self.curiosity.step(tb["x"], tb["u"], tb["x2"], self.cfg.eta)
-            r_t = r_t + r_int
+            if self.cfg.switches["curiosity_reward"]:
+                r_t = r_t + r_int
             self.diag["r_int"] += float(r_int.mean())
             self.diag["cur_loss"] += float(loss)
             if self.selector is not None:
                 self.selector.offer(batch, r_int.numpy(), self.buffer)
         return r_t
 
+    def batch_tensors(self, batch: dict) -> dict:
+        """The networks' inputs of a minibatch: normalised (o, g) as x, (o2, g) as x2, and u."""
+        return dict(x=self.policy.inputs(batch["o"], batch["g"]), x2=self.policy.inputs(batch["o2"], batch["g"]),
+                    u=torch.from_numpy(np.ascontiguousarray(batch["u"])))
+
     def update_step(self) -> dict:
         batch = self.sample_batch()
-        x = self.policy.inputs(batch["o"], batch["g"])
-        x2 = self.policy.inputs(batch["o2"], batch["g"])
-        tb = dict(x=x, x2=x2, u=torch.from_numpy(np.ascontiguousarray(batch["u"])))
+        tb = self.batch_tensors(batch)
         tb["r"] = self.rewards(batch, tb)
         w = None if batch["weights"] is None else torch.from_numpy(batch["weights"])
         out = self.agent.update(tb, self.clip_return, w)

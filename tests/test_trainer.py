@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from acder_lite.config import METHODS
+from acder_lite.rewards import goal_oriented_factor
 from acder_lite.trainer import Trainer
 
 from conftest import tiny_config
@@ -80,9 +81,26 @@ def test_ebp_on_push_and_clip_range():
     assert tr.clip_return == pytest.approx((-50.0, 0.0))
 
 
-def test_start_states_are_used():
-    """Once the pool holds candidates, episodes restart from stored states."""
-    tr = Trainer(tiny_config(method="acder", env="FetchReach-v4", epochs=3, cycles=4))
+@pytest.mark.parametrize("method", sorted(m for m, sw in METHODS.items() if sw["start_states"]))
+def test_start_states_are_used(method):
+    """Once the pool holds candidates, episodes restart from stored states: in every method that
+    has start states, the ablation without curiosity included (its S-ICM still ranks them)."""
+    tr = Trainer(tiny_config(method=method, env="FetchReach-v4", epochs=3, cycles=4))
     tr.train(False)
     assert tr.buffer.success[: tr.buffer.n].any() and len(tr.selector.pool) > 0
     assert max(r["novel_start_share"] for r in tr.rows) > 0
+
+
+def test_no_curiosity_keeps_r_int_out_of_the_reward():
+    tr = Trainer(tiny_config(method="acder-no-curiosity", epochs=1, cycles=2))
+    tr.train(False)
+    assert tr.clip_return == pytest.approx((-1.5 / 0.02, 0.0))
+    batch = tr.sample_batch()
+    before = [p.detach().clone() for p in tr.curiosity.parameters()]
+    r = tr.rewards(batch, tr.batch_tensors(batch)).numpy()
+    lam = np.ones_like(r)
+    h = batch["her"]
+    lam[h] = goal_oriented_factor(batch["o"][h, :3], batch["g"][h], batch["u"][h])
+    np.testing.assert_allclose(r, lam * batch["r"], rtol=1e-6)
+    # ... while S-ICM still trains on the minibatch (it ranks the start states)
+    assert any(not bool((a == b).all()) for a, b in zip(before, tr.curiosity.parameters()))
