@@ -57,5 +57,10 @@ class EpisodeBuffer:
     def load_state_dict(self, d: dict) -> None:
         self.n, self.next, self.total = int(d["n"]), int(d["next"]), int(d["total"])
         for key in KEYS:
+            have, want = tuple(d[key].shape[1:]), tuple(getattr(self, key).shape[1:])
+            if have != want:  # e.g. a checkpoint written before envs.STATE_SPEC grew or shrank
+                from .io import CheckpointError
+                raise CheckpointError(f"the checkpoint's replay buffer holds {key} of shape {have} a step, this "
+                                      f"version stores {want}; allowed: a checkpoint written by this version")
             getattr(self, key)[: self.n] = d[key]
         self.success[: self.n] = d["success"]

@@ -6,7 +6,9 @@ draws minibatches from its replay buffer exactly as training does, and reports
 - **curiosity**: how the S-ICM error 1/2 ||F(s, a) - s'||^2 (Eq. 4 before the clip) is spread, the
   share of rows at the clip eta, overall and among rows of successful episodes (the rows the
   start-state selection chooses from), and which state entries carry the error;
-- **pool**: where the stored start states put the gripper and the object.
+- **pool**: where the stored start states put the gripper and the object;
+- **motion** (tasks with an object; needs only the committed `policy.pt`): how the trained policy
+  moves the object on test episodes: its speed, its spin, and its path against the straight line.
 
 Nothing is trained and nothing in the run folder is written, except the `--json` file if asked.
 Two traps it exists to show: when many rows sit at the clip, "the largest intrinsic reward" is a
@@ -102,32 +104,69 @@ def pool_profile(trainer, far: float = 0.2) -> dict:
     return out
 
 
-def diagnose(run_dir: str, batches: int = 10) -> dict:
-    """Both profiles of the run in `run_dir` (whichever its method has)."""
-    from .trainer import Trainer
+def object_motion(policy, env_id: str, episodes: int = 40, seed: int = 12345, workers: int = 4) -> dict:
+    """How a policy moves the object on deterministic test episodes (tasks with an object).
+
+    Per step: the object's speed (m/s, from its position, the achieved goal) and spin (rad/s, the
+    observation's `object_velr`, which Fetch scales by dt). Per episode: the object's path length
+    over the distance from its first to its last position (1 = a straight push; large = pushed
+    around). `episodes` is rounded up to a multiple of `workers` (envs stepped together).
+    """
+    from .trainer import run_episodes
+    envs = [E.make_env(env_id, seed=seed + i) for i in range(workers)]
+    if not envs[0].has_object:
+        raise ConfigError(f"env={env_id!r} has no object to follow; allowed: FetchPush-v4, FetchPickAndPlace-v4")
+    names = E.obs_names(envs[0])
+    velr = slice(names.index("object_velr.x"), names.index("object_velr.z") + 1)
+    dt, T = float(envs[0].dt), E.horizon(env_id)
+    speed, spin, path, disp, succ = [], [], [], [], []
+    for _ in range(-(-episodes // workers)):
+        ep = run_episodes(envs, policy, T)
+        steps = np.linalg.norm(np.diff(ep["ag"].astype(np.float64), axis=1), axis=-1)  # (W, T)
+        speed.append(steps / dt)
+        spin.append(np.linalg.norm(ep["o"][:, 1:, velr].astype(np.float64), axis=-1) / dt)
+        path.append(steps.sum(1))
+        disp.append(np.linalg.norm(ep["ag"][:, -1].astype(np.float64) - ep["ag"][:, 0], axis=-1))
+        succ.append(ep["success"])
+    speed, spin = np.concatenate(speed), np.concatenate(spin)
+    path, disp, succ = np.concatenate(path), np.concatenate(disp), np.concatenate(succ)
+    moved = disp > 0.02  # episodes where the object ended more than 2 cm from where it began
+    return dict(episodes=int(succ.size), success=float(succ.mean()), speed_mean=float(speed.mean()),
+                spin_mean=float(spin.mean()), spin_p99=float(np.quantile(spin, 0.99)),
+                path_mean=float(path.mean()), moved_share=float(moved.mean()),
+                path_over_distance=float(np.median(path[moved] / disp[moved])) if moved.any() else float("nan"))
+
+
+def diagnose(run_dir: str, batches: int = 10, episodes: int = 0, seed: int = 12345) -> dict:
+    """Curiosity and pool profiles of the run in `run_dir`, from its checkpoint.pt; or, with
+    `episodes` > 0, the object's motion under its policy.pt (which committed runs keep)."""
+    from .trainer import Policy, Trainer
+    if episodes > 0:
+        pol = load_torch(os.path.join(run_dir, "policy.pt"))["policy"]
+        return dict(run=run_dir, method=pol["method"], env=pol["env"],
+                    motion=object_motion(Policy.from_state_dict(pol), pol["env"], episodes, seed))
     path = os.path.join(run_dir, "checkpoint.pt")
     ckpt = load_torch(path)
     if "buffer" not in ckpt:
         raise CheckpointError(f"checkpoint {path!r} holds a policy only; allowed: a checkpoint.pt written by train")
     cfg = Config.from_dict(ckpt["config"])
+    if not (cfg.switches["curiosity"] == "sicm" or cfg.switches["start_states"]):
+        raise ConfigError(f"method={cfg.method!r} has neither S-ICM nor a start-state pool; allowed: "
+                          "acder and its ablations, or --episodes N for the object's motion")
     cfg.threads = 1
     tr = Trainer(cfg)
     tr.load_state_dict(ckpt)
-    out = dict(run=run_dir, method=cfg.method, env=cfg.env, episodes=tr.episodes,
-               test_success=tr.success_rate)
+    out = dict(run=run_dir, method=cfg.method, env=cfg.env, episodes=tr.episodes, test_success=tr.success_rate)
     if isinstance(tr.curiosity, SICM):
         out["curiosity"] = curiosity_profile(tr, batches)
     if tr.selector is not None:
         out["pool"] = pool_profile(tr)
-    if len(out) == 5:
-        raise ConfigError(f"method={cfg.method!r} has neither S-ICM nor a start-state pool; allowed: "
-                          "acder and its ablations")
     return out
 
 
 def to_text(d: dict) -> str:
-    lines = [f"{d['run']}: {d['method']} on {d['env']}, {d['episodes']:,} episodes, "
-             f"test success {d['test_success']:.3f}"]
+    lines = [f"{d['run']}: {d['method']} on {d['env']}"
+             + (f", {d['episodes']:,} episodes, test success {d['test_success']:.3f}" if "episodes" in d else "")]
     c = d.get("curiosity")
     if c:
         q = c["error_quantiles"]
@@ -145,19 +184,30 @@ def to_text(d: dict) -> str:
                          f"{p['distance_to']}: median {p['distance_median']:.3f} m, max {p['distance_max']:.3f} m, "
                          f"{p['share_far']:.2f} farther than {p['far']} m; gripper height min "
                          f"{p['gripper_z_min']:.3f} m, median {p['gripper_z_median']:.3f} m")
+    m = d.get("motion")
+    if m:
+        lines.append(f"motion: {m['episodes']} test episodes, success {m['success']:.3f}; object speed {m['speed_mean']:.4f} m/s, "
+                     f"spin {m['spin_mean']:.3f} rad/s (99%: {m['spin_p99']:.2f}); moved in {m['moved_share']:.2f} of "
+                     f"the episodes, path {m['path_over_distance']:.2f} x the distance (median)")
     return "\n".join(lines)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("run", help="a run folder holding checkpoint.pt")
     parser.add_argument("--batches", type=int, default=10, help="minibatches to draw (default: 10)")
+    parser.add_argument("--episodes", type=int, default=0,
+                        help="instead, roll out the run's policy.pt for N test episodes and report how it "
+                             "moves the object (tasks with an object; needs no checkpoint)")
+    parser.add_argument("--seed", type=int, default=12345, help="seed of the test envs for --episodes")
     parser.add_argument("--json", metavar="FILE", help="also write the numbers to FILE")
 
 
 def run(args) -> int:
     if args.batches < 1:
         raise ConfigError(f"batches={args.batches} is not allowed: an integer >= 1")
-    d = diagnose(args.run, args.batches)
+    if args.episodes < 0:
+        raise ConfigError(f"episodes={args.episodes} is not allowed: an integer >= 0")
+    d = diagnose(args.run, args.batches, args.episodes, args.seed)
     print(to_text(d))
     if args.json:
         write_json(args.json, d)

@@ -88,3 +88,46 @@ def test_diagnose_errors(tmp_path, cli):
         assert r.returncode == 2, (args, r.stderr)
         assert "Traceback" not in r.stderr and needle in r.stderr
         assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_object_motion_of_a_still_policy_is_zero():
+    still = lambda o, g: np.zeros((o.shape[0], 4), np.float32)
+    m = D.object_motion(still, "FetchPush-v4", episodes=4, workers=2)
+    assert m["episodes"] == 4
+    assert m["speed_mean"] < 1e-3 and m["spin_mean"] < 1e-2  # the object only settles on the table
+    assert m["moved_share"] == 0.0 and np.isnan(m["path_over_distance"])
+
+
+def test_object_motion_of_a_pushing_policy():
+    """A policy that drives the gripper into the object moves it."""
+    def push(o, g):  # drive the gripper at the object's centre: it pushes the object away
+        rel = o[:, 6:9]  # object_rel_pos
+        return np.concatenate([np.clip(10 * rel, -1, 1), np.zeros((o.shape[0], 1), np.float32)], 1)
+    m = D.object_motion(push, "FetchPush-v4", episodes=4, workers=2)
+    assert m["speed_mean"] > 0.005 and m["moved_share"] > 0
+    assert m["path_over_distance"] >= 1.0  # a path is never shorter than its displacement
+
+
+def test_diagnose_motion_needs_only_the_policy(tmp_path, cli):
+    run = tmp_path / "her"
+    Trainer(tiny_config(env="FetchPush-v4", method="her", epochs=1, cycles=1), str(run)).train(progress=False)
+    os.remove(run / "checkpoint.pt")
+    r = cli("diagnose", str(run), "--episodes", "2", "--json", str(tmp_path / "m.json"))
+    assert r.returncode == 0, r.stderr
+    m = json.loads((tmp_path / "m.json").read_text())["motion"]
+    assert m["episodes"] == 4 and 0.0 <= m["success"] <= 1.0  # rounded up to the 4 test envs
+    reach = tmp_path / "reach"
+    Trainer(tiny_config(method="her", epochs=1, cycles=1), str(reach)).train(progress=False)
+    r = cli("diagnose", str(reach), "--episodes", "2")
+    assert r.returncode == 2 and "has no object" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_diagnose_refuses_a_checkpoint_of_another_state_layout(tmp_path, cli):
+    import torch
+    run = tmp_path / "acder"
+    Trainer(tiny_config(env="FetchPush-v4", method="acder", epochs=1, cycles=1), str(run)).train(progress=False)
+    ck = torch.load(run / "checkpoint.pt", weights_only=False)
+    ck["buffer"]["state"] = np.zeros(ck["buffer"]["state"].shape[:2] + (292,))
+    torch.save(ck, run / "checkpoint.pt")
+    r = cli("diagnose", str(run))
+    assert r.returncode == 2 and "(51, 292)" in r.stderr and "Traceback" not in r.stderr
