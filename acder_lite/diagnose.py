@@ -1,4 +1,4 @@
-"""diagnose an ACDER run from its checkpoint: what S-ICM finds novel and what the start pool holds
+"""diagnose a run: what S-ICM finds novel, what the start pool holds, how the policy moves the object
 
 `python -m acder_lite diagnose results/FetchPush-v4/acder/seed1` loads the run's `checkpoint.pt`,
 draws minibatches from its replay buffer exactly as training does, and reports
@@ -41,17 +41,15 @@ def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
     rows of successful episodes, error quantiles, and the `top` state entries by mean squared error.
     """
     if not isinstance(trainer.curiosity, SICM):
-        raise ConfigError(f"method={trainer.cfg.method!r} has no S-ICM to diagnose; allowed: acder, "
-                          "acder-no-goal-factor, acder-no-start-states")
+        raise ConfigError(f"method={trainer.cfg.method!r} has no S-ICM to diagnose; allowed: acder and its ablations")
     eta = trainer.cfg.eta
     errs, succ, sq = [], [], 0.0
     with torch.no_grad():
         for _ in range(batches):
             b = trainer.sample_batch()
-            x = trainer.policy.inputs(b["o"], b["g"])
-            x2 = trainer.policy.inputs(b["o2"], b["g"])
-            u = torch.as_tensor(b["u"], dtype=torch.float32)
-            err, pred = trainer.curiosity.errors(x, u, x2)
+            tb = trainer.batch_tensors(b)
+            x2 = tb["x2"]
+            err, pred = trainer.curiosity.errors(tb["x"], tb["u"], x2)
             errs.append(err.numpy())
             succ.append(trainer.buffer.success[b["ep"]])
             sq = sq + (pred - x2).pow(2).mean(0).numpy() / batches
