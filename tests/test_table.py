@@ -150,3 +150,30 @@ def test_seed_crossings_running(tmp_path):
     make_run(tmp_path, "FetchPush-v4", "acder", 3, [(400, 0.6), (800, 0.7)], epochs=50)
     md = T.seed_crossings(T.load_runs(tmp_path), "FetchPush-v4", ["acder"])
     assert md.strip().splitlines()[-1] == "| DDPG+ACDER | 3 | 400 | not yet | not yet | 800 (training) |"
+
+
+def test_mean_curve_crossings(tmp_path):
+    P = "FetchPush-v4"
+    # her: seed 0 at 0.9 then 1.0, seed 1 at 1.0 then 0.9 -> mean 0.95 at 80 and 120 (0.95), first at 80
+    make_run(tmp_path, P, "her", 0, [(40, 0.0), (80, 0.9), (120, 1.0)], epochs=50)
+    make_run(tmp_path, P, "her", 1, [(40, 0.5), (80, 1.0), (120, 0.9)], epochs=50)
+    # acder: seed 0 ended (done.json) at 40 with 1.0, budget 1 epoch = 400 < seed 1's evaluations:
+    # it holds 1.0 to the group's largest budget, so the mean is (1.0 + 0.9) / 2 = 0.95 at 800
+    make_run(tmp_path, P, "acder", 0, [(40, 1.0)], epochs=1, done=True)
+    make_run(tmp_path, P, "acder", 1, [(400, 0.5), (800, 0.9)], epochs=50)
+    # her-per: one seed still training, below the threshold
+    make_run(tmp_path, P, "her-per", 0, [(40, 0.3)], epochs=50)
+    rows = T.mean_curve_crossings(T.load_runs(tmp_path))
+    by = {r["method"]: r for r in rows}
+    assert [r["method"] for r in rows] == ["her", "her-per", "acder"]
+    assert by["her"]["episodes"] == 80 and by["her"]["n"] == 2 and by["her"]["paper"] == 11600
+    assert by["acder"]["episodes"] == 800
+    assert by["her-per"]["episodes"] is None and by["her-per"]["running"] == 1
+    md = T.mean_curve_markdown(rows).splitlines()
+    assert "| DDPG+HER (`her`) | 80 (2 seeds) · paper 11,600 |" in md
+    assert "| DDPG+HER+PER (`her-per`) | not yet · paper 7,800 |" in md
+    assert md[-1] == "| ours | 0.1 |"  # 80 / 800
+    # a listed method without runs: "not run", or "–" where the paper has no number either (EBP, Reach)
+    reach = dict(method="her", env="FetchReach-v4", threshold=1.0, n=1, episodes=40.0, running=0, paper=2240)
+    md = T.mean_curve_markdown(rows + [reach], methods=["her", "her-ebp"]).splitlines()
+    assert "| DDPG+HER+EBP (`her-ebp`) | – | not run · paper 7,200 |" in md
