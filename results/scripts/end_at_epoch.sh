@@ -18,6 +18,10 @@ ckpt_cycle() {  # the cycle a checkpoint was saved at (memory-mapped: cheap for 
 }
 last=""
 while true; do
+  if [ -f "$run/done.json" ]; then
+    echo "end_at_epoch: $run has already ended (done.json)"
+    exit 0
+  fi
   m=$(stat -c %Y "$run/checkpoint.pt" 2>/dev/null || echo 0)
   if [ "$m" != "$last" ]; then  # read the checkpoint only when a new one has been written
     last=$m
