@@ -21,16 +21,22 @@ OBJECT_ENVS = ("FetchPush-v4", "FetchPickAndPlace-v4", "FetchSlide-v4")
 # Ablation "without curiosity" (Fig. 5): S-ICM still ranks the start-state candidates (section IV-B
 # needs its r_i), but r_i leaves the reward. Without S-ICM no candidate could be chosen, and the
 # ablation would silently lose its start states too.
+# target_clip: the range the critic's target y is clipped to. "wide" (DESIGN.md) is the range the
+# method's rewards can reach, [-lambda_max, r_i_max] / (1 - gamma); "baselines" is Baselines' own
+# [-1/(1-gamma), 0] (clip_pos_returns), which the paper's Baselines-based code may have kept: it
+# stops Q from growing on accumulated curiosity. `acder-baselines-clip` is ACDER with it, an
+# experiment of ours (not in the paper) on why our ACDER differs from the paper's.
 METHODS: dict[str, dict] = {
-    "ddpg": dict(her=False, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none"),
-    "her": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none"),
-    "her-icm": dict(her=True, curiosity="icm", curiosity_reward=True, goal_factor=False, start_states=False, priority="none"),
-    "her-per": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="per"),
-    "her-ebp": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="ebp"),
-    "acder": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=True, priority="none"),
-    "acder-no-curiosity": dict(her=True, curiosity="sicm", curiosity_reward=False, goal_factor=True, start_states=True, priority="none"),
-    "acder-no-goal-factor": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=False, start_states=True, priority="none"),
-    "acder-no-start-states": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=False, priority="none"),
+    "ddpg": dict(her=False, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none", target_clip="wide"),
+    "her": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none", target_clip="wide"),
+    "her-icm": dict(her=True, curiosity="icm", curiosity_reward=True, goal_factor=False, start_states=False, priority="none", target_clip="wide"),
+    "her-per": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="per", target_clip="wide"),
+    "her-ebp": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="ebp", target_clip="wide"),
+    "acder": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=True, priority="none", target_clip="wide"),
+    "acder-no-curiosity": dict(her=True, curiosity="sicm", curiosity_reward=False, goal_factor=True, start_states=True, priority="none", target_clip="wide"),
+    "acder-no-goal-factor": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=False, start_states=True, priority="none", target_clip="wide"),
+    "acder-no-start-states": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=False, priority="none", target_clip="wide"),
+    "acder-baselines-clip": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=True, priority="none", target_clip="baselines"),
 }
 
 # Paper, section V-B: eta = 0.05 on Reach, 0.8 elsewhere; alpha0 = 0.8 (0.7 on the multi-step task).
@@ -52,7 +58,8 @@ class Config:
     env: str = "FetchReach-v4"
     """Gymnasium id of the task; one of `ENV_IDS`."""
     method: str = "her"
-    """A row of the method table (`METHODS`): ddpg, her, her-icm, her-per, her-ebp, acder, ablations."""
+    """A row of the method table (`METHODS`): ddpg, her, her-icm, her-per, her-ebp, acder, ablations,
+    acder-baselines-clip."""
     seed: int = 0
     """Seeds numpy, torch and every env (worker i gets seed*1000+i, test envs seed*1000+500+i)."""
 

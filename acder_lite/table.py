@@ -36,6 +36,7 @@ METHOD_LABELS = {
     "her-ebp": "DDPG+HER+EBP", "acder": "DDPG+ACDER",
     "acder-no-curiosity": "ACDER w/o curiosity", "acder-no-goal-factor": "ACDER w/o goal factor",
     "acder-no-start-states": "ACDER w/o start states",
+    "acder-baselines-clip": "ACDER, Baselines' target clip",
 }
 """How the paper names each method."""
 

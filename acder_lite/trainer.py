@@ -137,6 +137,21 @@ def run_episodes(envs: list, act, T: int, starts=None) -> dict:
     return dict(o=o, ag=ag, state=state, g=g, u=u, success=success, novel=novel)
 
 
+def target_clip(switches: dict, eta: float, gamma: float) -> tuple[float, float]:
+    """The range the critic's target y is clipped to (`compute_loss_q`), by the method's switches.
+
+    "wide" (DESIGN.md): the rewards lambda * r_her + r_i lie in [-lambda_max, r_i_max], so y is
+    clipped to that range over 1 - gamma, lambda_max = 1.5 with the goal factor (Eq. 6), r_i_max =
+    eta when r_i is in the reward (Eq. 4). "baselines": Baselines' [-1/(1-gamma), 0] whatever the
+    rewards (its clip_pos_returns), so accumulated curiosity cannot make Q positive.
+    """
+    if switches["target_clip"] == "baselines":
+        return (-1.0 / (1 - gamma), 0.0)
+    lam_max = 1.5 if switches["goal_factor"] else 1.0
+    r_i_max = eta if switches["curiosity_reward"] else 0.0
+    return (-lam_max / (1 - gamma), r_i_max / (1 - gamma))
+
+
 class Trainer:
     def __init__(self, cfg: Config, out_dir: str | None = None, command: list[str] | None = None):
         self.cfg = cfg.resolve()
@@ -175,10 +190,7 @@ class Trainer:
         elif sw["priority"] == "ebp":
             from .priority import EnergyPrioritizer
             self.ebp = EnergyPrioritizer(self.buffer.size)
-        # Target clip (DESIGN.md): rewards lambda*r_her + r_i lie in [-lambda_max, r_i_max].
-        lam_max = 1.5 if sw["goal_factor"] else 1.0
-        r_i_max = cfg.eta if sw["curiosity_reward"] else 0.0
-        self.clip_return = (-lam_max / (1 - cfg.gamma), r_i_max / (1 - cfg.gamma))
+        self.clip_return = target_clip(sw, cfg.eta, cfg.gamma)
         # progress
         self.cycle = 0               # cycles done in all
         self.episodes = 0            # training episodes (all workers)

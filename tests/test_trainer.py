@@ -6,7 +6,7 @@ import pytest
 
 from acder_lite.config import METHODS
 from acder_lite.rewards import goal_oriented_factor
-from acder_lite.trainer import Trainer
+from acder_lite.trainer import Trainer, target_clip
 
 from conftest import tiny_config
 
@@ -79,6 +79,39 @@ def test_ebp_on_push_and_clip_range():
     acder = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1))
     assert acder.clip_return == pytest.approx((-1.5 / 0.02, 0.8 / 0.02))
     assert tr.clip_return == pytest.approx((-50.0, 0.0))
+
+
+@pytest.mark.parametrize("method, expected", [
+    ("her", (-50.0, 0.0)),                      # rewards in {-1, 0}
+    ("acder", (-75.0, 40.0)),                   # lambda * r_her in [-1.5, 0], r_i in [0, 0.8]
+    ("acder-no-goal-factor", (-50.0, 40.0)),
+    ("acder-no-curiosity", (-75.0, 0.0)),
+    ("her-icm", (-50.0, 40.0)),
+    ("acder-baselines-clip", (-50.0, 0.0)),     # Baselines' clip whatever the rewards
+])
+def test_target_clip_by_hand(method, expected):
+    """gamma = 0.98, so 1 / (1 - gamma) = 50; eta = 0.8 (Push)."""
+    assert target_clip(METHODS[method], 0.8, 0.98) == pytest.approx(expected)
+
+
+def test_baselines_clip_caps_the_critics_target_at_zero():
+    tr = Trainer(tiny_config(method="acder-baselines-clip", env="FetchPush-v4", epochs=1))
+    tr.train(False)
+    assert tr.clip_return == pytest.approx((-50.0, 0.0))
+    batch = tr.sample_batch()
+    tb = tr.batch_tensors(batch)
+    tb["r"] = tr.rewards(batch, tb)
+    assert float(tb["r"].max()) > 0          # curiosity still pays where r_her = 0 ...
+    from acder_lite.ddpg import compute_loss_q
+    import torch
+    with torch.no_grad():
+        q_next = tr.agent.critic_targ(tb["x2"], tr.agent.actor_targ(tb["x2"]))
+    _, td = compute_loss_q(tr.agent.critic, tr.agent.actor_targ, tr.agent.critic_targ, tb, tr.cfg.gamma,
+                           tr.clip_return)
+    with torch.no_grad():
+        y = td + tr.agent.critic(tb["x"], tb["u"])
+    assert float(y.max()) <= 1e-6              # ... but no target y exceeds 0
+    np.testing.assert_allclose(y.numpy(), (tb["r"] + 0.98 * q_next).clamp(-50, 0).numpy(), atol=1e-5)
 
 
 @pytest.mark.parametrize("method", sorted(m for m, sw in METHODS.items() if sw["start_states"]))
