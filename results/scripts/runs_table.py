@@ -1,0 +1,40 @@
+"""Markdown rows for results/README.md: one per run folder given, from its config.json and done.json.
+
+    python results/scripts/runs_table.py results/FetchPush-v4/her-ebp/seed0 ...
+
+Columns: run, git commits (start; resumes, short), wall time, epochs, how it ended (early stop,
+budget, ended at an epoch by a resume with a smaller --epochs, or still training).
+"""
+import json
+import re
+import sys
+from pathlib import Path
+
+
+def row(d: Path) -> str:
+    cfg = json.loads((d / "config.json").read_text())
+    c = cfg["config"]
+    commits = [cfg["versions"].get("git", "?")[:7]] + [r["versions"].get("git", "?")[:7] for r in cfg.get("resumes", [])]
+    # consecutive duplicates (a resume from the same commit) said once
+    commits = [x for i, x in enumerate(commits) if i == 0 or x != commits[i - 1]]
+    name = f"{c['env']} `{c['method']}` seed {c['seed']}"
+    done_p = d / "done.json"
+    if not done_p.exists():
+        return f"| {name} | {'; '.join(commits)} | – | – | still training |"
+    done = json.loads(done_p.read_text())
+    planned = re.search(r"--epochs[ =](\d+)", cfg["command"])
+    planned = int(planned.group(1)) if planned else c["epochs"]
+    if done["stopped_early"]:
+        how = "early stop"
+    elif done["epochs"] < planned:
+        how = f"ended at {done['epochs']:.0f} epochs (hovering; `end_when_hovering.sh`)"
+    else:
+        how = "full budget"
+    return (f"| {name} | {'; '.join(commits)} | {done['wall_s']:,.0f} s | {done['epochs']:.1f} | {how} |")
+
+
+if __name__ == "__main__":
+    print("| run | git commit (start; resumes) | wall time | epochs | how it ended |")
+    print("|---|---|---|---|---|")
+    for a in sys.argv[1:]:
+        print(row(Path(a)))
