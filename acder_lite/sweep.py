@@ -276,7 +276,8 @@ def _raise_interrupt(signum, frame):
 
 
 def run(args) -> int:
-    """Plan the grid and run it; 0 if every run finished, 1 if one failed, 2 on bad input, 130 on Ctrl-C."""
+    """Plan the grid and run it; 0 if every run finished, 1 if one failed or was interrupted from
+    outside, 2 on bad input, 130 on Ctrl-C."""
     problem = check_args(args)
     if problem:
         print(f"error: sweep: {problem}", file=sys.stderr)
@@ -302,7 +303,7 @@ def run(args) -> int:
         old_int = signal.signal(signal.SIGINT, signal.default_int_handler)
         old_term = signal.signal(signal.SIGTERM, _raise_interrupt)
     running: dict[int, tuple[Cell, subprocess.Popen, object, float]] = {}
-    failed = finished = 0
+    failed = finished = interrupted = 0
     try:
         try:
             while todo or running:
@@ -321,9 +322,11 @@ def run(args) -> int:
                     _release(cell, log)
                     del running[pid]
                     status = _finish_status(cell, rc)
-                    ok = status == "done"
-                    finished += ok
-                    failed += not ok
+                    # a child interrupted from outside (its own Ctrl-C, or results/scripts/
+                    # end_at_epoch.sh) kept its checkpoint: not a failure, but not finished either
+                    finished += status == "done"
+                    interrupted += status == "interrupted"
+                    failed += status not in ("done", "interrupted")
                     _say(f"finish {cell.name}: {status} in {time.monotonic() - t0:.0f}s")
                 if running:
                     time.sleep(POLL_S)
@@ -341,8 +344,9 @@ def run(args) -> int:
             signal.signal(signal.SIGINT, old_int)
             signal.signal(signal.SIGTERM, old_term)
     _say(f"all done: {finished} finished, {failed} failed, "
-         f"{sum(c.action == 'skip' for c in cells)} skipped")
-    return 1 if failed else 0
+         + (f"{interrupted} interrupted (re-run the same command to resume), " if interrupted else "")
+         + f"{sum(c.action == 'skip' for c in cells)} skipped")
+    return 1 if failed or interrupted else 0
 
 
 def _interrupt(running: dict) -> int:

@@ -170,3 +170,20 @@ def test_real_sweep_interrupt_and_restart(tmp_path):
     with open(run1 / "progress.csv") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == 20 and float(rows[-1]["episodes"]) == 20 * 2 * 2  # one row per epoch
+
+
+def test_a_child_interrupted_from_outside_is_not_a_failure(grid, monkeypatch, capsys):
+    """A run stopped by SIGINT from elsewhere keeps its checkpoint: the summary says interrupted."""
+    def fake_start(cell, args):
+        cell.out.mkdir(parents=True, exist_ok=True)
+        log = open(cell.out / "train.log", "a")
+        proc = subprocess.Popen(["sh", "-c", "kill -INT $$"], stdout=log, stderr=subprocess.STDOUT)
+        return proc, log, time.monotonic()
+    monkeypatch.setattr(S, "_start", fake_start)
+    monkeypatch.setattr(S, "POLL_S", 0.01)
+    args = parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "2", "--results", str(grid),
+                  "--jobs", "1"])
+    assert S.run(args) == 1
+    out = capsys.readouterr().out
+    assert "finish FetchReach-v4/her/seed2: interrupted" in out
+    assert "0 finished, 0 failed, 1 interrupted (re-run the same command to resume)" in out
