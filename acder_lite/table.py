@@ -341,7 +341,7 @@ def mean_curve_markdown(rows: list[dict], methods=None) -> str:
     names = set(methods) if methods is not None else {r["method"] for r in rows}
     by = {(r["method"], r["env"]): r for r in rows}
 
-    def cell(r, m):
+    def cell(r, m, e):
         if r is None:
             return "–" if m in PAPER_TABLE_I and e in PAPER_TABLE_I[m] and PAPER_TABLE_I[m][e] is None else "not run"
         if r["episodes"] is None:
@@ -356,7 +356,7 @@ def mean_curve_markdown(rows: list[dict], methods=None) -> str:
         cells = []
         for e in envs:
             paper = PAPER_TABLE_I.get(m, {}).get(e)
-            cells.append(cell(by.get((m, e)), m) + (f" · paper {_int(paper)}" if paper else ""))
+            cells.append(cell(by.get((m, e)), m, e) + (f" · paper {_int(paper)}" if paper else ""))
         lines.append(f"| {METHOD_LABELS.get(m, m)} (`{m}`) | " + " | ".join(cells) + " |")
     ratios = []
     for e in envs:
