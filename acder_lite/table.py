@@ -11,6 +11,7 @@ import argparse
 import csv
 import json
 import math
+import shlex
 import sys
 from pathlib import Path
 
@@ -81,21 +82,53 @@ def _budget(cfg: dict) -> float | None:
         return None
 
 
+def _epochs_option(command: str) -> int | None:
+    """N of `--epochs N` (or `--epochs=N`) in a command line; None if absent or unreadable."""
+    try:
+        toks = shlex.split(command)
+    except ValueError:
+        return None
+    for i, t in enumerate(toks):
+        v = toks[i + 1] if t == "--epochs" and i + 1 < len(toks) else t[9:] if t.startswith("--epochs=") else None
+        if v is not None:
+            return int(v) if v.isdigit() else None
+    return None
+
+
+def planned_epochs(config_json: dict) -> int | None:
+    """The epochs a run was started with, from its config.json (the whole file, not only "config").
+
+    A run ended at an epoch by `train --resume DIR --epochs N` (results/scripts/end_at_epoch.sh)
+    has N in its config, so the plan is read from the first command: its `--epochs`, else the
+    config's value if no resume changed it, else the Config default the command fell back on.
+    """
+    first = _epochs_option(config_json.get("command", ""))
+    if first is not None:
+        return first
+    if all(_epochs_option(r.get("command", "")) is None for r in config_json.get("resumes", [])):
+        return config_json.get("config", {}).get("epochs")
+    from .config import Config
+    return Config.__dataclass_fields__["epochs"].default
+
+
 def load_runs(results_dir: str | Path) -> list[dict]:
     """Every run under `results_dir` that has a progress.csv.
 
     Each run is a dict: env, method, seed (from config.json's "config", else from the path
-    `<env>/<method>/seed<k>`), dir, rows (see `read_progress`), budget (planned training episodes;
-    the last `episodes` value if config.json lacks the fields), done (done.json present).
+    `<env>/<method>/seed<k>`), dir, rows (see `read_progress`), budget (training episodes of the
+    config's epochs, which an ended run's resume may have lowered; the last `episodes` value if
+    config.json lacks the fields), planned_epochs (see `planned_epochs`; None without config.json),
+    done (done.json present).
     Sorted by (env, method, seed).
     """
     runs = []
     for path in sorted(Path(results_dir).rglob("progress.csv")):
         d = path.parent
-        cfg = {}
+        cfg, planned = {}, None
         if (d / "config.json").exists():
             with open(d / "config.json") as f:
-                cfg = json.load(f).get("config", {})
+                whole = json.load(f)
+            cfg, planned = whole.get("config", {}), planned_epochs(whole)
         rows = [r for r in read_progress(path) if isinstance(r.get("episodes"), float)]
         seed = cfg.get("seed")
         if seed is None:
@@ -104,7 +137,7 @@ def load_runs(results_dir: str | Path) -> list[dict]:
         if budget is None and rows:
             budget = max(r["episodes"] for r in rows)
         runs.append(dict(env=cfg.get("env", d.parent.parent.name), method=cfg.get("method", d.parent.name),
-                         seed=seed, dir=str(d), rows=rows, budget=budget,
+                         seed=seed, dir=str(d), rows=rows, budget=budget, planned_epochs=planned,
                          done=(d / "done.json").exists()))
     runs.sort(key=lambda r: (r["env"], r["method"], str(r["seed"])))
     return runs

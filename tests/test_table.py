@@ -63,6 +63,31 @@ def test_load_runs(results):
     assert r["budget"] == 1000 and r["done"] is False
 
 
+def test_planned_epochs():
+    cfg = dict(epochs=18)
+    train = "python -m acder_lite train --env FetchPush-v4 --method her --seed 1 --out R"
+    ended = dict(command="python -m acder_lite train --resume R --epochs 18 --threads 1 --quiet")
+    # ended at epoch 18 by a resume: the plan is the first command's --epochs
+    assert T.planned_epochs(dict(config=cfg, command=train + " --epochs 50", resumes=[ended])) == 50
+    assert T.planned_epochs(dict(config=cfg, command=train + " --epochs=40")) == 40
+    # no --epochs anywhere: the config's value; no --epochs first but a resume changed it: the default
+    assert T.planned_epochs(dict(config=cfg, command=train, resumes=[dict(command="x --threads 2")])) == 18
+    assert T.planned_epochs(dict(config=cfg, command=train, resumes=[ended])) == 50
+    # `--epochs-x` is another option, and a quoted argument is one token
+    assert T.planned_epochs(dict(config=cfg, command=train + " --epochs-x 7 --out 'a --epochs 9'")) == 18
+
+
+def test_load_runs_planned_epochs(results):
+    d = results / "FetchReach-v4" / "her" / "seed0"
+    whole = json.loads((d / "config.json").read_text())
+    whole.update(command="train --epochs 25", resumes=[dict(command="train --resume R --epochs 3")])
+    (d / "config.json").write_text(json.dumps(whole))
+    by = {(r["env"], r["method"], r["seed"]): r for r in T.load_runs(results)}
+    assert by[("FetchReach-v4", "her", 0)]["planned_epochs"] == 25
+    assert by[("FetchReach-v4", "her", 1)]["planned_epochs"] == 5  # command "x": the config's epochs
+    assert by[("FetchPush-v4", "acder", 0)]["planned_epochs"] is None  # no config.json
+
+
 def test_summarize(results):
     s = {(r["method"], r["env"]): r for r in T.summarize(T.load_runs(results))}
     assert ("her", "FetchSlide-v4") not in s

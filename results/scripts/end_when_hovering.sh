@@ -12,12 +12,12 @@ gap=${3:-1200}
 until [ -f "$run/progress.csv" ]; do sleep 30; done
 while true; do
   [ -f "$run/done.json" ] && { echo "end_when_hovering: $run has ended by itself"; exit 0; }
-  # first crossing (episodes) and the episodes of one epoch, from progress.csv and config.json
-  first=$(awk -F, -v t="$thr" 'NR == 1 {for (i = 1; i <= NF; i++) if ($i == "test_success") s = i}
-           NR > 1 && $s >= t - 1e-9 {print $3; exit}' "$run/progress.csv")
+  # first crossing (episodes; empty if none yet), by the function that makes Table I
+  first=$(.venv/bin/python -c "import sys; from acder_lite.table import read_progress, episodes_to_threshold as f
+e = f(read_progress(sys.argv[1]), float(sys.argv[2])); print('' if e is None else int(e))" "$run/progress.csv" "$thr")
   if [ -n "$first" ]; then
     per=$(.venv/bin/python -c "import json,sys; c=json.load(open(sys.argv[1]))['config']; print(c['cycles']*c['episodes_per_cycle']*c['workers'])" "$run/config.json")
-    epoch=$(( (${first%.*} + gap + per - 1) / per ))
+    epoch=$(( (first + gap + per - 1) / per ))
     echo "end_when_hovering: $run first reached $thr at $first episodes; ending at epoch $epoch unless it stops before"
     exec results/scripts/end_at_epoch.sh "$run" "$epoch"
   fi

@@ -6,9 +6,10 @@ Columns: run, git commits (start; resumes, short), wall time, epochs, how it end
 budget, ended at an epoch by a resume with a smaller --epochs, or still training).
 """
 import json
-import re
 import sys
 from pathlib import Path
+
+from acder_lite.table import planned_epochs
 
 
 def row(d: Path) -> str:
@@ -22,8 +23,7 @@ def row(d: Path) -> str:
     if not done_p.exists():
         return f"| {name} | {'; '.join(commits)} | – | – | still training |"
     done = json.loads(done_p.read_text())
-    planned = re.search(r"--epochs[ =](\d+)", cfg["command"])
-    planned = int(planned.group(1)) if planned else c["epochs"]
+    planned = planned_epochs(cfg)
     if done["stopped_early"]:
         how = "early stop"
     elif done["epochs"] < planned:
