@@ -4,6 +4,8 @@ All figures are measured in the same run (this machine is noisy): random-action 
 episode, full training per episode (collection + 40 updates per cycle + target update, after a
 warm-up cycle), the update step's achieved GFLOP/s (FLOPs counted by torch's FlopCounterMode) and
 the machine's fp32 matmul GFLOP/s at the update's layer shape, on the same threads.
+`--update-dtype both` also times the update step in float32 and bfloat16 (interleaved blocks) and
+prints their ratio.
 """
 from __future__ import annotations
 
@@ -37,7 +39,9 @@ def update_flops(trainer) -> float:
 def run_bench(args) -> int:
     from .config import Config
     from .trainer import Trainer, run_episodes
-    cfg = Config(env=args.env, method=args.method, workers=args.workers, threads=args.threads, seed=0)
+    both = args.update_dtype == "both"
+    cfg = Config(env=args.env, method=args.method, workers=args.workers, threads=args.threads, seed=0,
+                 update_dtype="float32" if both else args.update_dtype)
     tr = Trainer(cfg)
     W, T = cfg.workers, tr.T
     rng = np.random.default_rng(0)
@@ -61,20 +65,30 @@ def run_bench(args) -> int:
     train_ms = (time.perf_counter() - t0) / (args.cycles * W * cfg.episodes_per_cycle) * 1e3
 
     flops = update_flops(tr)
-    for _ in range(3):
-        tr.update_step()
-    blocks = []  # median of 5 blocks of 20 updates: this machine is noisy
-    for _ in range(5):
-        t0 = time.perf_counter()
-        for _ in range(20):
+    dtypes = ("float32", "bfloat16") if both else (cfg.update_dtype,)
+    blocks = {dt: [] for dt in dtypes}  # median of 5 blocks of 20 updates: this machine is noisy
+    for dt in dtypes:
+        cfg.update_dtype = dt
+        for _ in range(3):
             tr.update_step()
-        blocks.append((time.perf_counter() - t0) / 20)
-    upd_s = float(np.median(blocks))
+    for _ in range(5):
+        for dt in dtypes:  # interleaved, so both see the same machine
+            cfg.update_dtype = dt
+            t0 = time.perf_counter()
+            for _ in range(20):
+                tr.update_step()
+            blocks[dt].append((time.perf_counter() - t0) / 20)
+    cfg.update_dtype = dtypes[0]
+    upd = {dt: float(np.median(b)) for dt, b in blocks.items()}
+    upd_s = upd[dtypes[0]]
     upd_gflops = flops / upd_s / 1e9
     mm = matmul_gflops(args.threads)
     print(f"env={cfg.env} method={cfg.method} workers={W} threads={args.threads} "
-          f"minibatch={cfg.batch_size * W} update_ms={upd_s * 1e3:.1f} update_gflop={flops / 1e9:.2f} "
-          f"update_share_of_matmul={upd_gflops / mm:.2f}")
+          f"minibatch={cfg.batch_size * W} update_dtype={dtypes[0]} update_ms={upd_s * 1e3:.1f} "
+          f"update_gflop={flops / 1e9:.2f} update_share_of_matmul={upd_gflops / mm:.2f}")
+    if both:
+        print(f"update_ms float32={upd['float32'] * 1e3:.1f} bfloat16={upd['bfloat16'] * 1e3:.1f} "
+              f"speedup={upd['float32'] / upd['bfloat16']:.2f} (train_ms_per_episode below is float32's)")
     print(f"bench: sim_ms_per_episode={sim_ms:.1f} train_ms_per_episode={train_ms:.1f} "
           f"ratio={train_ms / sim_ms:.2f} update_gflops={upd_gflops:.1f} matmul_gflops={mm:.1f}")
     return 0

@@ -162,6 +162,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--workers", type=int, default=4)
     b.add_argument("--cycles", type=int, default=6, help="timed cycles (after one warm-up cycle)")
     b.add_argument("--threads", type=int, default=2)
+    b.add_argument("--update-dtype", default="float32", choices=["float32", "bfloat16", "both"],
+                   help="precision of the gradient step; 'both' times the two in one run, with their ratio")
     b.set_defaults(func=cmd_bench)
 
     from . import diagnose, sweep, table

@@ -25,7 +25,9 @@ class Actor(nn.Module):
         self.net = mlp([in_dim] + [hidden] * layers + [act_dim], nn.Tanh)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.max_u * self.net(x)
+        # .float(): under bf16 autocast the layers return bf16; losses and actions stay fp32
+        # (a no-op, no copy, in fp32)
+        return self.max_u * self.net(x).float()
 
 
 class Critic(nn.Module):
@@ -37,4 +39,4 @@ class Critic(nn.Module):
         self.net = mlp([in_dim + act_dim] + [hidden] * layers + [1])
 
     def forward(self, x: torch.Tensor, u: torch.Tensor) -> torch.Tensor:
-        return self.net(torch.cat([x, u / self.max_u], dim=-1)).squeeze(-1)
+        return self.net(torch.cat([x, u / self.max_u], dim=-1)).float().squeeze(-1)

@@ -53,17 +53,25 @@ class DDPG:
         self.pi_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr_actor, fused=True)
         self.q_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr_critic, fused=True)
 
+    def _autocast(self):
+        """bf16 matmuls for the forward passes when `cfg.update_dtype` is 'bfloat16' (backward
+        follows the forward's dtypes; the fp32 weights and their gradients are untouched)."""
+        return torch.autocast("cpu", dtype=torch.bfloat16,
+                              enabled=self.cfg.update_dtype == "bfloat16")
+
     def update(self, batch: dict, clip_return, weights=None) -> dict:
         """One gradient step of critic and actor, both computed with the critic before its step
         (as Baselines does in one session run). Returns losses and |TD| for PER."""
-        q_loss, td = compute_loss_q(self.critic, self.actor_targ, self.critic_targ, batch,
-                                    self.cfg.gamma, clip_return, weights)
+        with self._autocast():
+            q_loss, td = compute_loss_q(self.critic, self.actor_targ, self.critic_targ, batch,
+                                        self.cfg.gamma, clip_return, weights)
         self.q_opt.zero_grad(set_to_none=True)
         q_loss.backward()
         # Freeze the critic for the actor's loss: skips its weight gradients (a third of its
         # backward pass) and keeps the critic's .grad from the critic loss alone.
         self.critic.requires_grad_(False)
-        pi_loss = compute_loss_pi(self.actor, self.critic, batch, self.cfg.action_l2)
+        with self._autocast():
+            pi_loss = compute_loss_pi(self.actor, self.critic, batch, self.cfg.action_l2)
         self.pi_opt.zero_grad(set_to_none=True)
         pi_loss.backward()
         self.critic.requires_grad_(True)

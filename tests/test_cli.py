@@ -32,6 +32,7 @@ def one_line_error(p, *needles):
     (["--eta", "1.5"], ["eta", "(0, 1)"]),
     (["--alpha0", "-0.1"], ["alpha0", "[0, 1]"]),
     (["--restart-goal", "random"], ["restart_goal", "resample"]),
+    (["--update-dtype", "float16"], ["update_dtype", "'bfloat16'"]),
     (["--method", "her-ebp"], ["her-ebp", "object", "FetchPush-v4"]),
     (["--no-such-option", "1"], ["unrecognized", "--no-such-option"]),
 ])
@@ -90,3 +91,17 @@ def test_ctrl_c_leaves_a_checkpoint_to_resume(tmp_path):
                         str(done // 2 + 1), "--quiet"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
     assert (out / "done.json").exists()
+
+
+def test_bench_both_dtypes_ends_with_the_bench_line(cli):
+    p = cli("bench", "--env", "FetchReach-v4", "--workers", "1", "--cycles", "1", "--threads", "1",
+            "--update-dtype", "both")
+    assert p.returncode == 0, p.stderr
+    lines = p.stdout.strip().splitlines()
+    assert lines[-1].startswith("bench: sim_ms_per_episode=")
+    for key in ("train_ms_per_episode=", "ratio=", "update_gflops=", "matmul_gflops="):
+        assert key in lines[-1]
+    (cmp,) = [l for l in lines if l.startswith("update_ms float32=")]
+    speedup = float(cmp.split("speedup=")[1].split()[0])
+    assert speedup > 0
+    one_line_error(cli("bench", "--update-dtype", "float16"), "--update-dtype", "bfloat16")

@@ -77,6 +77,34 @@ def test_actor_loss_does_not_train_the_critic():
         torch.testing.assert_close(p, q)
 
 
+def test_bfloat16_update_follows_float32():
+    """`update_dtype='bfloat16'`: the same step as fp32 up to bf16 rounding, on fp32 weights."""
+    from acder_lite.config import Config
+    from acder_lite.ddpg import DDPG
+    torch.manual_seed(0)
+    b = dict(x=torch.randn(512, 10), x2=torch.randn(512, 10), u=torch.rand(512, 4) * 2 - 1,
+             r=-(torch.rand(512) < 0.8).float())
+    agents = {}
+    for dt in ("float32", "bfloat16"):
+        torch.manual_seed(1)
+        agents[dt] = DDPG(10, 4, Config(update_dtype=dt).resolve())
+    out = {dt: a.update(b, (-50.0, 0.0)) for dt, a in agents.items()}
+    f, h = out["float32"], out["bfloat16"]
+    for k in ("critic_loss", "actor_loss"):
+        assert h[k].dtype == torch.float32
+        assert h[k].item() == pytest.approx(f[k].item(), rel=2e-2, abs=2e-3)
+    torch.testing.assert_close(h["td"], f["td"], rtol=0, atol=0.05)
+    for net in ("critic", "actor"):
+        pf = list(getattr(agents["float32"], net).parameters())
+        ph = list(getattr(agents["bfloat16"], net).parameters())
+        assert all(p.dtype == torch.float32 and p.grad.dtype == torch.float32 for p in ph)
+        # the gradients of this step (left in .grad): close as a whole, not bit-identical
+        gf = torch.cat([p.grad.flatten() for p in pf])
+        gh = torch.cat([p.grad.flatten() for p in ph])
+        rel = float((gh - gf).norm() / gf.norm())
+        assert 0 < rel < 0.05, (net, rel)
+
+
 def test_polyak():
     from acder_lite.config import Config
     from acder_lite.ddpg import DDPG

@@ -28,6 +28,16 @@ def test_same_seed_same_progress(tmp_path):
     assert rows_of(c / "progress.csv") != a
 
 
+def test_bfloat16_same_seed_same_progress(tmp_path):
+    for name in ("a", "b"):
+        Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=2, update_dtype="bfloat16"),
+                str(tmp_path / name)).train(False)
+    a, b = rows_of(tmp_path / "a" / "progress.csv"), rows_of(tmp_path / "b" / "progress.csv")
+    assert len(a) == 2 and a == b
+    Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=2), str(tmp_path / "f")).train(False)
+    assert rows_of(tmp_path / "f" / "progress.csv") != a  # float32 is another computation
+
+
 @pytest.mark.parametrize("method", ["her", "acder", "her-per"])
 def test_resumed_run_equals_uninterrupted(tmp_path, method):
     kw = dict(method=method, env="FetchPush-v4", eval_every_cycles=2)
