@@ -266,13 +266,15 @@ def to_markdown(summary: list[dict], envs=None, methods=None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def seed_crossings(runs: list[dict], env: str, methods, levels=(0.5, 0.9, 0.95)) -> str:
+def seed_crossings(runs: list[dict], env: str, methods, levels=(0.5, 0.9, 0.95), labels: dict | None = None) -> str:
     """A markdown table, one row per run of `methods` on `env`: the episodes at which its test
     success first reached each of `levels` ("not yet" while it trains, "never" once it has ended).
 
     Table I keeps only the last level and the mean over seeds; this is where one sees whether two
     methods differ by when learning takes off (0.5) or by how long the last stretch takes.
+    `labels` names the methods (default `METHOD_LABELS`, else the method itself).
     """
+    labels = METHOD_LABELS if labels is None else labels
     rows = [r for r in runs if r["env"] == env and r["method"] in methods]
     rows.sort(key=lambda r: (list(methods).index(r["method"]), str(r["seed"])))
     lines = ["| method | seed | " + " | ".join(f"{x:.0%}" for x in levels) + " | evaluated to |",
@@ -281,7 +283,7 @@ def seed_crossings(runs: list[dict], env: str, methods, levels=(0.5, 0.9, 0.95))
         last = max((x["episodes"] for x in r["rows"]), default=0.0)
         missing = "not yet" if _is_running(r, last) else "never"
         cells = [episodes_to_threshold(r["rows"], x) for x in levels]
-        lines.append(f"| {METHOD_LABELS.get(r['method'], r['method'])} | {r['seed']} | "
+        lines.append(f"| {labels.get(r['method'], r['method'])} | {r['seed']} | "
                      + " | ".join(missing if c is None else _int(c) for c in cells)
                      + f" | {_int(last)}{' (training)' if missing == 'not yet' else ''} |")
     return "\n".join(lines) + "\n"
