@@ -143,6 +143,26 @@ def load_runs(results_dir: str | Path) -> list[dict]:
     return runs
 
 
+def how_ended(run: dict, thresholds: dict[str, float] = PAPER_THRESHOLDS) -> str | None:
+    """Why a run of `load_runs` ended, from its done.json: "early stop" (the success held),
+    "full budget", "hovering" (it reached its task's threshold, then was ended at an epoch by
+    `train --resume DIR --epochs N`, the rule of results/scripts/end_when_hovering.sh) or "cut
+    short" (ended that way before it reached the threshold, e.g. when a session ran out). None
+    while there is no done.json.
+    """
+    p = Path(run["dir"]) / "done.json"
+    if not p.exists():
+        return None
+    done = json.loads(p.read_text())
+    if done.get("stopped_early"):
+        return "early stop"
+    planned = run.get("planned_epochs")
+    if planned is None or done.get("epochs", planned) >= planned:
+        return "full budget"
+    reached = episodes_to_threshold(run["rows"], thresholds.get(run["env"], 1.0)) is not None
+    return "hovering" if reached else "cut short"
+
+
 def _is_running(run: dict, last: float) -> bool:
     """No done.json and the last evaluation is before the planned budget: the run is still going."""
     return (not run.get("done")) and run.get("budget") is not None and last < run["budget"]

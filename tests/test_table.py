@@ -202,3 +202,24 @@ def test_mean_curve_crossings(tmp_path):
     reach = dict(method="her", env="FetchReach-v4", threshold=1.0, n=1, episodes=40.0, running=0, paper=2240)
     md = T.mean_curve_markdown(rows + [reach], methods=["her", "her-ebp"]).splitlines()
     assert "| DDPG+HER+EBP (`her-ebp`) | – | not run · paper 7,200 |" in md
+
+
+def test_how_ended(tmp_path):
+    P = "FetchPush-v4"
+    runs = {}
+    for name, points, done in [
+            ("early", [(400, 0.96)], dict(epochs=1.0, stopped_early=True)),
+            ("budget", [(400, 0.5), (2000, 0.6)], dict(epochs=5.0, stopped_early=False)),
+            ("hover", [(400, 0.96), (800, 0.9)], dict(epochs=2.0, stopped_early=False)),
+            ("cut", [(400, 0.5), (800, 0.9)], dict(epochs=2.0, stopped_early=False)),
+            ("training", [(400, 0.5)], None)]:
+        d = make_run(tmp_path, P, name, 0, points, epochs=int(done["epochs"]) if done else 5)
+        whole = json.loads((d / "config.json").read_text())
+        whole["command"] = "python -m acder_lite train --epochs 5"  # planned 5; resumes may lower the config's
+        (d / "config.json").write_text(json.dumps(whole))
+        if done:
+            (d / "done.json").write_text(json.dumps(dict(done, episodes=points[-1][0], wall_s=1.0)))
+    for r in T.load_runs(tmp_path):
+        runs[r["method"]] = T.how_ended(r)
+    assert runs == {"early": "early stop", "budget": "full budget", "hover": "hovering",
+                    "cut": "cut short", "training": None}

@@ -2,14 +2,14 @@
 
     python results/scripts/runs_table.py results/FetchPush-v4/her-ebp/seed0 ...
 
-Columns: run, git commits (start; resumes, short), wall time, epochs, how it ended (early stop,
-budget, ended at an epoch by a resume with a smaller --epochs, or still training).
+Columns: run, git commits (start; resumes, short), wall time, epochs, how it ended
+(`acder_lite.table.how_ended`: early stop, full budget, hovering or cut short, or still training).
 """
 import json
 import sys
 from pathlib import Path
 
-from acder_lite.table import planned_epochs
+from acder_lite.table import how_ended, load_runs
 
 
 def row(d: Path) -> str:
@@ -23,13 +23,11 @@ def row(d: Path) -> str:
     if not done_p.exists():
         return f"| {name} | {'; '.join(commits)} | – | – | still training |"
     done = json.loads(done_p.read_text())
-    planned = planned_epochs(cfg)
-    if done["stopped_early"]:
-        how = "early stop"
-    elif done["epochs"] < planned:
+    how = how_ended(load_runs(d)[0])
+    if how == "hovering":
         how = f"ended at {done['epochs']:.0f} epochs (hovering; `end_when_hovering.sh`)"
-    else:
-        how = "full budget"
+    elif how == "cut short":
+        how = f"cut short at {done['epochs']:.0f} epochs, before reaching the threshold (`end_at_epoch.sh`)"
     return (f"| {name} | {'; '.join(commits)} | {done['wall_s']:,.0f} s | {done['epochs']:.1f} | {how} |")
 
 
