@@ -160,6 +160,11 @@ class Config:
     """Stop early once test success >= this for `stop_patience` evaluations in a row (0: never)."""
     stop_patience: int = 3
     """See `stop_after_success`."""
+    stop_gap_episodes: int = 0
+    """Also stop at the first epoch end at least this many training episodes after the test
+    success first reached `stop_after_success` (0: off). Table I counts that first crossing, so a
+    run that hovers just below its threshold would spend the rest of its budget for nothing;
+    results/ uses 1,200 (three epochs), the rule of results/scripts/end_when_hovering.sh."""
 
     switches: dict = field(default_factory=dict)
     """Filled from `METHODS[method]` by `resolve()`; recorded in config.json."""
@@ -196,7 +201,7 @@ class Config:
                      "layers", "sicm_hidden", "pool_size", "icm_feature_dim", "threads", "stop_patience"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 bad(name, "an integer >= 1")
-        for name in ("updates_per_cycle", "test_episodes", "eval_every_cycles", "replay_k"):
+        for name in ("updates_per_cycle", "test_episodes", "eval_every_cycles", "replay_k", "stop_gap_episodes"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
                 bad(name, "an integer >= 0")
         if self.buffer_size < 1000:

@@ -139,7 +139,8 @@ def train_command(cell: Cell, args) -> list[str]:
     for flag, value in (("--epochs", args.epochs), ("--workers", args.workers),
                         ("--eval-every-cycles", args.eval_every_cycles),
                         ("--stop-after-success", args.stop_after_success),
-                        ("--stop-patience", args.stop_patience), ("--threads", args.threads)):
+                        ("--stop-patience", args.stop_patience), ("--stop-gap-episodes", args.stop_gap_episodes),
+                        ("--threads", args.threads)):
         if value is not None:
             cmd += [flag, str(value)]
     return cmd + shlex.split(args.train_args or "")
@@ -162,6 +163,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--eval-every-cycles", type=int, default=None, help="passed to train")
     parser.add_argument("--stop-after-success", type=float, default=None, help="passed to train")
     parser.add_argument("--stop-patience", type=int, default=None, help="passed to train")
+    parser.add_argument("--stop-gap-episodes", type=int, default=None, help="passed to train")
     parser.add_argument("--train-args", default="", metavar="'ARGS'",
                         help="more options for train, one quoted string: --train-args='--cycles 2'")
     parser.add_argument("--dry-run", action="store_true",
@@ -193,8 +195,10 @@ def check_args(args) -> str | None:
         value = getattr(args, name)
         if value is not None and value < 1:
             return f"--{name.replace('_', '-')}={value} is not allowed: an integer >= 1"
-    if args.eval_every_cycles is not None and args.eval_every_cycles < 0:
-        return f"--eval-every-cycles={args.eval_every_cycles} is not allowed: an integer >= 0"
+    for name in ("eval_every_cycles", "stop_gap_episodes"):
+        value = getattr(args, name)
+        if value is not None and value < 0:
+            return f"--{name.replace('_', '-')}={value} is not allowed: an integer >= 0"
     if args.stop_after_success is not None and not 0 <= args.stop_after_success <= 1:
         return f"--stop-after-success={args.stop_after_success} is not allowed: a number in [0, 1]"
     try:

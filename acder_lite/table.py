@@ -145,15 +145,17 @@ def load_runs(results_dir: str | Path) -> list[dict]:
 
 def how_ended(run: dict, thresholds: dict[str, float] = PAPER_THRESHOLDS) -> str | None:
     """Why a run of `load_runs` ended, from its done.json: "early stop" (the success held),
-    "full budget", "hovering" (it reached its task's threshold, then was ended at an epoch by
-    `train --resume DIR --epochs N`, the rule of results/scripts/end_when_hovering.sh) or "cut
-    short" (ended that way before it reached the threshold, e.g. when a session ran out). None
-    while there is no done.json.
+    "full budget", "hovering" (it reached its task's threshold and was ended at an epoch after
+    it: by `Config.stop_gap_episodes`, or by `train --resume DIR --epochs N` as
+    results/scripts/end_when_hovering.sh does) or "cut short" (ended that way before it reached
+    the threshold, e.g. when a session ran out). None while there is no done.json.
     """
     p = Path(run["dir"]) / "done.json"
     if not p.exists():
         return None
     done = json.loads(p.read_text())
+    if done.get("stop_reason") == "gap after first success":  # Config.stop_gap_episodes
+        return "hovering"
     if done.get("stopped_early"):
         return "early stop"
     planned = run.get("planned_epochs")

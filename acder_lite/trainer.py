@@ -199,6 +199,7 @@ class Trainer:
         self.success_rate = 0.0      # latest test success (drives Eq. 9)
         self.rows: list[dict] = []
         self.done = False
+        self.stop_reason: str | None = None  # "success held", "gap after first success" or "budget"
         self._reset_diag()
 
     # ----- columns and diagnostics
@@ -376,10 +377,20 @@ class Trainer:
         return row
 
     def should_stop(self) -> bool:
+        """The early stop: test success >= stop_after_success at the last stop_patience evaluations."""
         c = self.cfg
         if c.stop_after_success <= 0 or len(self.rows) < c.stop_patience:
             return False
         return all(r["test_success"] >= c.stop_after_success for r in self.rows[-c.stop_patience:])
+
+    def past_gap(self) -> bool:
+        """stop_gap_episodes training episodes or more since the test success first reached
+        stop_after_success (checked at epoch ends only, so the run ends on a checkpoint)."""
+        c = self.cfg
+        if c.stop_after_success <= 0 or c.stop_gap_episodes <= 0:
+            return False
+        first = next((r["episodes"] for r in self.rows if r["test_success"] >= c.stop_after_success), None)
+        return first is not None and self.episodes >= first + c.stop_gap_episodes
 
     def train(self, progress: bool = True, max_cycles: int | None = None) -> list[dict]:
         """Train until cfg.epochs (or the early stop), checkpointing after every epoch.
@@ -408,20 +419,23 @@ class Trainer:
                     row = self.log_row(t0)
                     bar.set_postfix(success=f"{row['test_success']:.2f}", episodes=self.episodes)
                     if self.should_stop():
-                        self.done = True
+                        self.done, self.stop_reason = True, "success held"
+                if end_of_epoch and not self.done and self.past_gap():
+                    self.done, self.stop_reason = True, "gap after first success"
                 if end_of_epoch or self.done:
                     self.wall += time.perf_counter() - t0
                     t0 = time.perf_counter()
                     if self.out_dir:
                         self.save(os.path.join(self.out_dir, "checkpoint.pt"))
-            self.done = self.done or self.cycle >= total
+            if not self.done and self.cycle >= total:
+                self.done, self.stop_reason = True, "budget"
         finally:
             bar.close()
         if self.out_dir and self.done:
             write_json(os.path.join(self.out_dir, "done.json"),
                        dict(epochs=self.cycle / c.cycles, episodes=self.episodes,
-                            stopped_early=self.cycle < total, final_test_success=self.success_rate,
-                            wall_s=self.wall))
+                            stopped_early=self.cycle < total, stop_reason=self.stop_reason,
+                            final_test_success=self.success_rate, wall_s=self.wall))
         return self.rows
 
     # ----- files
@@ -457,7 +471,8 @@ class Trainer:
             ebp=None if self.ebp is None else self.ebp.state_dict(),
             buffer=self.buffer.state_dict(),
             progress=dict(cycle=self.cycle, episodes=self.episodes, env_steps=self.env_steps, wall=self.wall,
-                          success_rate=self.success_rate, rows=self.rows, done=self.done),
+                          success_rate=self.success_rate, rows=self.rows, done=self.done,
+                          stop_reason=self.stop_reason),
             rng=dict(numpy=self.rng.bit_generator.state, torch=torch.get_rng_state(),
                      envs=[E.env_rng_state(e) for e in self.envs],
                      test_envs=[E.env_rng_state(e) for e in self.test_envs]),
@@ -482,6 +497,7 @@ class Trainer:
         p = d["progress"]
         self.cycle, self.episodes, self.env_steps = p["cycle"], p["episodes"], p["env_steps"]
         self.wall, self.success_rate, self.rows, self.done = p["wall"], p["success_rate"], p["rows"], p["done"]
+        self.stop_reason = p.get("stop_reason")  # absent from checkpoints written before it was recorded
         r = d["rng"]
         self.rng.bit_generator.state = r["numpy"]
         torch.set_rng_state(r["torch"])

@@ -33,6 +33,7 @@ def one_line_error(p, *needles):
     (["--alpha0", "-0.1"], ["alpha0", "[0, 1]"]),
     (["--restart-goal", "random"], ["restart_goal", "resample"]),
     (["--update-dtype", "float16"], ["update_dtype", "'bfloat16'"]),
+    (["--stop-gap-episodes", "-1"], ["stop_gap_episodes", ">= 0"]),
     (["--method", "her-ebp"], ["her-ebp", "object", "FetchPush-v4"]),
     (["--no-such-option", "1"], ["unrecognized", "--no-such-option"]),
 ])

@@ -109,6 +109,8 @@ def test_train_command(grid):
     (["--envs", "FetchReach-v4", "--methods", "her", "--threads", "0"], "--threads=0"),
     (["--envs", "FetchReach-v4", "--methods", "her", "--epochs", "0"], "--epochs=0"),
     (["--envs", "FetchReach-v4", "--methods", "her", "--stop-after-success", "2"], "--stop-after-success=2"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--stop-gap-episodes", "-1"], "--stop-gap-episodes=-1"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--eval-every-cycles", "-1"], "--eval-every-cycles=-1"),
     (["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--cycles '2"], "--train-args"),
 ])
 def test_argument_errors(tmp_path, capsys, argv, msg):

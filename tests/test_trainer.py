@@ -147,3 +147,25 @@ def test_no_curiosity_keeps_r_int_out_of_the_reward():
     np.testing.assert_allclose(r, lam * batch["r"], rtol=1e-6)
     # ... while S-ICM still trains on the minibatch (it ranks the start states)
     assert any(not bool((a == b).all()) for a, b in zip(before, tr.curiosity.parameters()))
+
+
+@pytest.mark.parametrize("gap,script,reason,episodes", [
+    (7, [0.5, 0.96] + [0.9] * 30, "gap after first success", 12),  # first 0.95 at 4 episodes; epoch 2 ends at 12
+    (0, [0.5, 0.96] + [0.9] * 30, "budget", 30),                    # the gap rule off: the whole budget
+    (7, [0.5, 0.96, 0.97] + [0.9] * 30, "success held", 6),         # held for stop_patience=2 first
+])
+def test_stop_reasons(tmp_path, gap, script, reason, episodes):
+    import json
+    from acder_lite import table as T
+    cfg = tiny_config(epochs=5, eval_every_cycles=1, stop_after_success=0.95, stop_patience=2,
+                      stop_gap_episodes=gap)
+    tr = Trainer(cfg, str(tmp_path / "run"))
+    scripted = iter(script)
+    tr.evaluate = lambda: next(scripted)  # test success by script; training itself runs as usual
+    tr.train(False)
+    done = json.loads((tmp_path / "run" / "done.json").read_text())
+    assert (done["stop_reason"], done["episodes"]) == (reason, episodes)
+    assert done["stopped_early"] == (reason != "budget")
+    (run,) = T.load_runs(tmp_path)
+    assert T.how_ended(run) == {"gap after first success": "hovering", "budget": "full budget",
+                                "success held": "early stop"}[reason]
