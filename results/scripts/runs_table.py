@@ -25,7 +25,8 @@ def row(d: Path) -> str:
     done = json.loads(done_p.read_text())
     how = how_ended(load_runs(d)[0])
     if how == "hovering":
-        how = f"ended at {done['epochs']:.0f} epochs (hovering; `end_when_hovering.sh`)"
+        rule = "`--stop-gap-episodes`" if done.get("stop_reason") == "gap after first success" else "`end_when_hovering.sh`"
+        how = f"ended at {done['epochs']:.0f} epochs (hovering; {rule})"
     elif how == "cut short":
         how = f"cut short at {done['epochs']:.0f} epochs, before reaching the threshold (`end_at_epoch.sh`)"
     return (f"| {name} | {'; '.join(commits)} | {done['wall_s']:,.0f} s | {done['epochs']:.1f} | {how} |")
