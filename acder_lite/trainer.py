@@ -389,7 +389,8 @@ class Trainer:
         c = self.cfg
         if c.stop_after_success <= 0 or c.stop_gap_episodes <= 0:
             return False
-        first = next((r["episodes"] for r in self.rows if r["test_success"] >= c.stop_after_success), None)
+        from .table import episodes_to_threshold  # the first crossing exactly as Table I reads it
+        first = episodes_to_threshold(self.rows, c.stop_after_success)
         return first is not None and self.episodes >= first + c.stop_gap_episodes
 
     def train(self, progress: bool = True, max_cycles: int | None = None) -> list[dict]:
