@@ -138,7 +138,8 @@ def load_runs(results_dir: str | Path) -> list[dict]:
             budget = max(r["episodes"] for r in rows)
         runs.append(dict(env=cfg.get("env", d.parent.parent.name), method=cfg.get("method", d.parent.name),
                          seed=seed, dir=str(d), rows=rows, budget=budget, planned_epochs=planned,
-                         done=(d / "done.json").exists()))
+                         done=(d / "done.json").exists(),
+                         update_dtype=cfg.get("update_dtype", "float32")))  # absent before it existed
     runs.sort(key=lambda r: (r["env"], r["method"], str(r["seed"])))
     return runs
 
@@ -179,7 +180,8 @@ def summarize(runs: list[dict], thresholds: dict[str, float] = PAPER_THRESHOLDS)
     (Table I's number, None if absent), so_far (largest episodes evaluated by a seed), best (best
     test success of any seed, None without evaluations) and running (seeds still training: no
     done.json and last evaluation before the budget); pending counts the running seeds that have not
-    reached the threshold yet (they may still change mean and std). Rows in Table I's order.
+    reached the threshold yet (they may still change mean and std); bf16 counts the seeds whose
+    gradient step ran in bfloat16 (`Config.update_dtype`). Rows in Table I's order.
     """
     groups: dict[tuple[str, str], list[dict]] = {}
     for r in runs:
@@ -208,6 +210,7 @@ def summarize(runs: list[dict], thresholds: dict[str, float] = PAPER_THRESHOLDS)
                 paper=PAPER_TABLE_I.get(m, {}).get(e),
                 so_far=max(last, default=0.0), best=max(best, default=None),
                 running=sum(_is_running(r, x) for r, x in zip(seeds, last)),
+                bf16=sum(r.get("update_dtype") == "bfloat16" for r in seeds),
                 pending=sum(_is_running(r, x) and e_ is None for r, x, e_ in zip(seeds, last, eps))))
     return out
 
@@ -218,6 +221,9 @@ def _int(x: float | None) -> str:
 
 def _cell(row: dict | None, paper: int | None, has_paper_row: bool) -> str:
     tail = f" · paper {_int(paper)}" if has_paper_row else ""
+    if row is not None and row.get("bf16"):  # said in the cell: the rest of the table is float32
+        which = "" if row["bf16"] == row["n"] else f" in {row['bf16']} of {row['n']} seeds"
+        tail = f" · bfloat16 update{which}" + tail
     if row is None:
         return "–" if has_paper_row and paper is None else "not run" + tail
     if row["k"] == 0:
@@ -360,7 +366,7 @@ def mean_curve_crossings(runs: list[dict], thresholds: dict[str, float] = PAPER_
     The paper does not say which reading its Table I uses; a figure read off Fig. 4's mean curve
     is the later of the two, since every seed must be near the threshold at once. Each row:
     method, env, threshold, n (seeds), episodes (None if the mean never got there with all seeds
-    present), running (seeds still training), paper.
+    present), running (seeds still training), bf16 (seeds with a bfloat16 gradient step), paper.
     """
     counts: dict[tuple[str, str], list[dict]] = {}
     for r in runs:
@@ -378,6 +384,7 @@ def mean_curve_crossings(runs: list[dict], thresholds: dict[str, float] = PAPER_
         out.append(dict(method=m, env=e, threshold=thresholds[e], n=len(seeds),
                         episodes=float(x[hit[0]]) if len(hit) else None,
                         running=sum(_is_running(r, l) for r, l in zip(seeds, last)),
+                        bf16=sum(r.get("update_dtype") == "bfloat16" for r in seeds),
                         paper=PAPER_TABLE_I.get(m, {}).get(e)))
     out.sort(key=lambda r: (list(METHOD_LABELS).index(r["method"]) if r["method"] in METHOD_LABELS
                             else len(METHOD_LABELS), r["method"], list(TASKS).index(r["env"])))
@@ -403,7 +410,8 @@ def mean_curve_markdown(rows: list[dict], methods=None) -> str:
             return "–" if m in PAPER_TABLE_I and e in PAPER_TABLE_I[m] and PAPER_TABLE_I[m][e] is None else "not run"
         if r["episodes"] is None:
             return "not yet" if r["running"] else "never"
-        return f"{_int(r['episodes'])} ({r['n']} seed{'s' if r['n'] > 1 else ''})"
+        bf16 = "" if not r.get("bf16") else (", bfloat16 update" if r["bf16"] == r["n"] else f", {r['bf16']} in bfloat16")
+        return f"{_int(r['episodes'])} ({r['n']} seed{'s' if r['n'] > 1 else ''}{bf16})"
 
     lines = ["Training episodes until the mean test success over seeds (all seeds present) first "
              "reaches the threshold · the paper's Table I.", "",

@@ -123,6 +123,25 @@ def test_to_markdown(results):
     assert "Reach (100%)" in md and "Push (95%)" in md
 
 
+def test_bfloat16_cells_say_so(tmp_path):
+    # Table I is float32 unless a cell says otherwise: here 1 of 2 HER seeds and the ACDER seed
+    P = "FetchPush-v4"
+    for method, seed, dtype in [("her", 0, "bfloat16"), ("her", 1, None), ("acder", 0, "bfloat16")]:
+        d = make_run(tmp_path, P, method, seed, [(400, 0.5), (800, 1.0)], epochs=2, done=True)
+        if dtype:
+            whole = json.loads((d / "config.json").read_text())
+            whole["config"]["update_dtype"] = dtype
+            (d / "config.json").write_text(json.dumps(whole))
+    runs = T.load_runs(tmp_path)
+    assert sorted(r["update_dtype"] for r in runs) == ["bfloat16", "bfloat16", "float32"]
+    md = T.to_markdown(T.summarize(runs))
+    assert "| DDPG+HER (`her`) | 800 ± 0 (2/2) · bfloat16 update in 1 of 2 seeds · paper 11,600 |" in md
+    assert "| DDPG+ACDER (`acder`) | 800 ± 0 (1/1) · bfloat16 update · paper 2,200 |" in md
+    md = T.mean_curve_markdown(T.mean_curve_crossings(runs))
+    assert "| DDPG+HER (`her`) | 800 (2 seeds, 1 in bfloat16) · paper 11,600 |" in md
+    assert "| DDPG+ACDER (`acder`) | 800 (1 seed, bfloat16 update) · paper 2,200 |" in md
+
+
 def test_learning_curves(tmp_path):
     make_run(tmp_path, "FetchReach-v4", "her", 0, [(0, 0.0), (100, 0.5), (200, 1.0)], epochs=1, cycles=25, workers=4)
     make_run(tmp_path, "FetchReach-v4", "her", 1, [(0, 0.0), (50, 0.2), (100, 0.3), (150, 0.4)],
