@@ -19,6 +19,8 @@ def row(d: Path) -> str:
     # consecutive duplicates (a resume from the same commit) said once
     commits = [x for i, x in enumerate(commits) if i == 0 or x != commits[i - 1]]
     name = f"{c['env']} `{c['method']}` seed {c['seed']}"
+    if c.get("update_dtype", "float32") != "float32":
+        name += f" ({c['update_dtype']} update)"
     done_p = d / "done.json"
     if not done_p.exists():
         return f"| {name} | {'; '.join(commits)} | – | – | still training |"
