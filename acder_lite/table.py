@@ -408,9 +408,9 @@ def mean_curve_markdown(rows: list[dict], methods=None) -> str:
     def cell(r, m, e):
         if r is None:
             return "–" if m in PAPER_TABLE_I and e in PAPER_TABLE_I[m] and PAPER_TABLE_I[m][e] is None else "not run"
-        if r["episodes"] is None:
-            return "not yet" if r["running"] else "never"
         bf16 = "" if not r.get("bf16") else (", bfloat16 update" if r["bf16"] == r["n"] else f", {r['bf16']} in bfloat16")
+        if r["episodes"] is None:
+            return ("not yet" if r["running"] else "never") + (f" ({bf16[2:]})" if bf16 else "")
         return f"{_int(r['episodes'])} ({r['n']} seed{'s' if r['n'] > 1 else ''}{bf16})"
 
     lines = ["Training episodes until the mean test success over seeds (all seeds present) first "
