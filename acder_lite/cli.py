@@ -160,7 +160,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--env", default="FetchPush-v4")
     b.add_argument("--method", default="her")
     b.add_argument("--workers", type=int, default=4)
-    b.add_argument("--cycles", type=int, default=6, help="timed cycles (after one warm-up cycle; that many of each precision with --update-dtype both)")
+    b.add_argument("--cycles", type=int, default=6,
+                   help="timed cycles after one warm-up cycle (that many of each precision with --update-dtype both)")
     b.add_argument("--threads", type=int, default=2)
     b.add_argument("--update-dtype", default="float32", choices=["float32", "bfloat16", "both"],
                    help="precision of the gradient step; 'both' times the two in one run, with their ratio")
