@@ -166,6 +166,11 @@ def how_ended(run: dict, thresholds: dict[str, float] = PAPER_THRESHOLDS) -> str
     return "hovering" if reached else "cut short"
 
 
+def _bf16_seeds(seeds: list[dict]) -> int:
+    """How many runs of `load_runs` took their gradient step in bfloat16 (`Config.update_dtype`)."""
+    return sum(r.get("update_dtype") == "bfloat16" for r in seeds)
+
+
 def _is_running(run: dict, last: float) -> bool:
     """No done.json and the last evaluation is before the planned budget: the run is still going."""
     return (not run.get("done")) and run.get("budget") is not None and last < run["budget"]
@@ -210,7 +215,7 @@ def summarize(runs: list[dict], thresholds: dict[str, float] = PAPER_THRESHOLDS)
                 paper=PAPER_TABLE_I.get(m, {}).get(e),
                 so_far=max(last, default=0.0), best=max(best, default=None),
                 running=sum(_is_running(r, x) for r, x in zip(seeds, last)),
-                bf16=sum(r.get("update_dtype") == "bfloat16" for r in seeds),
+                bf16=_bf16_seeds(seeds),
                 pending=sum(_is_running(r, x) and e_ is None for r, x, e_ in zip(seeds, last, eps))))
     return out
 
@@ -384,7 +389,7 @@ def mean_curve_crossings(runs: list[dict], thresholds: dict[str, float] = PAPER_
         out.append(dict(method=m, env=e, threshold=thresholds[e], n=len(seeds),
                         episodes=float(x[hit[0]]) if len(hit) else None,
                         running=sum(_is_running(r, l) for r, l in zip(seeds, last)),
-                        bf16=sum(r.get("update_dtype") == "bfloat16" for r in seeds),
+                        bf16=_bf16_seeds(seeds),
                         paper=PAPER_TABLE_I.get(m, {}).get(e)))
     out.sort(key=lambda r: (list(METHOD_LABELS).index(r["method"]) if r["method"] in METHOD_LABELS
                             else len(METHOD_LABELS), r["method"], list(TASKS).index(r["env"])))
@@ -408,10 +413,10 @@ def mean_curve_markdown(rows: list[dict], methods=None) -> str:
     def cell(r, m, e):
         if r is None:
             return "–" if m in PAPER_TABLE_I and e in PAPER_TABLE_I[m] and PAPER_TABLE_I[m][e] is None else "not run"
-        bf16 = "" if not r.get("bf16") else (", bfloat16 update" if r["bf16"] == r["n"] else f", {r['bf16']} in bfloat16")
+        bf16 = "" if not r.get("bf16") else ("bfloat16 update" if r["bf16"] == r["n"] else f"{r['bf16']} in bfloat16")
         if r["episodes"] is None:
-            return ("not yet" if r["running"] else "never") + (f" ({bf16[2:]})" if bf16 else "")
-        return f"{_int(r['episodes'])} ({r['n']} seed{'s' if r['n'] > 1 else ''}{bf16})"
+            return ("not yet" if r["running"] else "never") + (f" ({bf16})" if bf16 else "")
+        return f"{_int(r['episodes'])} ({r['n']} seed{'s' if r['n'] > 1 else ''}{', ' + bf16 if bf16 else ''})"
 
     lines = ["Training episodes until the mean test success over seeds (all seeds present) first "
              "reaches the threshold · the paper's Table I.", "",

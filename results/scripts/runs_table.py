@@ -18,14 +18,15 @@ def row(d: Path) -> str:
     commits = [cfg["versions"].get("git", "?")[:7]] + [r["versions"].get("git", "?")[:7] for r in cfg.get("resumes", [])]
     # consecutive duplicates (a resume from the same commit) said once
     commits = [x for i, x in enumerate(commits) if i == 0 or x != commits[i - 1]]
+    run = load_runs(d)[0]
     name = f"{c['env']} `{c['method']}` seed {c['seed']}"
-    if c.get("update_dtype", "float32") != "float32":
-        name += f" ({c['update_dtype']} update)"
+    if run["update_dtype"] != "float32":
+        name += f" ({run['update_dtype']} update)"
     done_p = d / "done.json"
     if not done_p.exists():
         return f"| {name} | {'; '.join(commits)} | – | – | still training |"
     done = json.loads(done_p.read_text())
-    how = how_ended(load_runs(d)[0])
+    how = how_ended(run)
     if how == "hovering":
         rule = "`--stop-gap-episodes`" if done.get("stop_reason") == "gap after first success" else "`end_when_hovering.sh`"
         how = f"ended at {done['epochs']:.0f} epochs (hovering; {rule})"
