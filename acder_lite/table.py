@@ -238,7 +238,9 @@ def _cell(row: dict | None, paper: int | None, has_paper_row: bool) -> str:
                     f"(0/{row['n']}, {row['running']} running)" + tail)
         return f"not reached in {_int(row['budget'])} (0/{row['n']})" + tail
     pending = f", {row['pending']} running" if row.get("pending") else ""
-    return f"{_int(row['mean'])} ± {_int(row['std'])} ({row['k']}/{row['n']}{pending})" + tail
+    # one seed has no spread: "± 0" would read as seeds that agree
+    spread = f" ± {_int(row['std'])}" if row["k"] > 1 else ""
+    return f"{_int(row['mean'])}{spread} ({row['k']}/{row['n']}{pending})" + tail
 
 
 def _ratio(her: dict | None, acder: dict | None) -> str:
