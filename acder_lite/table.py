@@ -373,7 +373,10 @@ def mean_curve_crossings(runs: list[dict], thresholds: dict[str, float] = PAPER_
     The paper does not say which reading its Table I uses; a figure read off Fig. 4's mean curve
     is the later of the two, since every seed must be near the threshold at once. Each row:
     method, env, threshold, n (seeds), episodes (None if the mean never got there with all seeds
-    present), running (seeds still training), bf16 (seeds with a bfloat16 gradient step), paper.
+    present), running (seeds still training), bf16 (seeds with a bfloat16 gradient step),
+    ended_short (seeds ended before their budget after their own first crossing, "hovering" in
+    `how_ended`: they hold a last value that may sit below the threshold, so a mean curve that
+    never got there says less than one over full budgets), paper.
     """
     counts: dict[tuple[str, str], list[dict]] = {}
     for r in runs:
@@ -392,6 +395,7 @@ def mean_curve_crossings(runs: list[dict], thresholds: dict[str, float] = PAPER_
                         episodes=float(x[hit[0]]) if len(hit) else None,
                         running=sum(_is_running(r, l) for r, l in zip(seeds, last)),
                         bf16=_bf16_seeds(seeds),
+                        ended_short=sum(how_ended(r, thresholds) == "hovering" for r in seeds),
                         paper=PAPER_TABLE_I.get(m, {}).get(e)))
     out.sort(key=lambda r: (list(METHOD_LABELS).index(r["method"]) if r["method"] in METHOD_LABELS
                             else len(METHOD_LABELS), r["method"], list(TASKS).index(r["env"])))
@@ -417,7 +421,16 @@ def mean_curve_markdown(rows: list[dict], methods=None) -> str:
             return "–" if m in PAPER_TABLE_I and e in PAPER_TABLE_I[m] and PAPER_TABLE_I[m][e] is None else "not run"
         bf16 = "" if not r.get("bf16") else ("bfloat16 update" if r["bf16"] == r["n"] else f"{r['bf16']} in bfloat16")
         if r["episodes"] is None:
-            return ("not yet" if r["running"] else "never") + (f" ({bf16})" if bf16 else "")
+            notes = [bf16] if bf16 else []
+            if r["running"]:
+                word = "not yet"
+            elif r.get("ended_short"):
+                # the seeds crossed one by one and were ended (gap rule) holding a value below it
+                word = "not before the runs ended"
+                notes.insert(0, f"{r['ended_short']} of {r['n']} ended soon after their own first crossing")
+            else:
+                word = "never"
+            return word + (f" ({'; '.join(notes)})" if notes else "")
         return f"{_int(r['episodes'])} ({r['n']} seed{'s' if r['n'] > 1 else ''}{', ' + bf16 if bf16 else ''})"
 
     lines = ["Training episodes until the mean test success over seeds (all seeds present) first "

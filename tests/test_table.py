@@ -146,6 +146,25 @@ def test_bfloat16_cells_say_so(tmp_path):
     assert "| DDPG+ACDER (`acder`) | never (bfloat16 update) · paper 2,200 |" in md
 
 
+def test_mean_curve_of_runs_ended_after_their_crossing(tmp_path):
+    # Each seed reached 95% once and was ended 3 epochs later (gap rule) at 0.9: the mean curve
+    # (0.5 + 1.0) / 2, (1.0 + 0.85) / 2, then (0.9 + 0.9) / 2 never reaches 0.95 with both
+    # seeds present, but that is the ending's doing, not "never" over a full budget.
+    P = "FetchPush-v4"
+    for seed, points in [(0, [(400, 0.5), (800, 1.0), (1200, 0.9)]), (1, [(400, 1.0), (800, 0.85), (1200, 0.9)])]:
+        d = make_run(tmp_path, P, "her", seed, points, epochs=50)
+        (d / "done.json").write_text(json.dumps(dict(epochs=3.0, stopped_early=True,
+                                                     stop_reason="gap after first success")))
+    make_run(tmp_path, P, "acder", 0, [(400, 0.5), (2000, 0.6)], epochs=5, done=True)  # full budget, never
+    rows = {r["method"]: r for r in T.mean_curve_crossings(T.load_runs(tmp_path))}
+    assert rows["her"]["episodes"] is None and rows["her"]["ended_short"] == 2
+    assert rows["acder"]["ended_short"] == 0
+    md = T.mean_curve_markdown(list(rows.values()))
+    assert ("| DDPG+HER (`her`) | not before the runs ended (2 of 2 ended soon after their own first "
+            "crossing) · paper 11,600 |") in md
+    assert "| DDPG+ACDER (`acder`) | never · paper 2,200 |" in md
+
+
 def test_learning_curves(tmp_path):
     make_run(tmp_path, "FetchReach-v4", "her", 0, [(0, 0.0), (100, 0.5), (200, 1.0)], epochs=1, cycles=25, workers=4)
     make_run(tmp_path, "FetchReach-v4", "her", 1, [(0, 0.0), (50, 0.2), (100, 0.3), (150, 0.4)],
