@@ -15,7 +15,7 @@ from .io import CheckpointError
 # Config fields that are not command-line options.
 _NOT_OPTIONS = {"switches"}
 # Fields a resumed run may change (everything else is fixed by the checkpoint).
-_RESUMABLE = {"epochs", "threads", "stop_after_success", "stop_patience", "stop_gap_episodes"}
+_RESUMABLE = {"epochs", "threads", "success_threshold", "stop_patience", "stop_gap_episodes"}
 
 
 class UsageError(Exception):

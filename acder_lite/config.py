@@ -21,31 +21,43 @@ OBJECT_ENVS = ("FetchPush-v4", "FetchPickAndPlace-v4", "FetchSlide-v4")
 # Ablation "without curiosity" (Fig. 5): S-ICM still ranks the start-state candidates (section IV-B
 # needs its r_i), but r_i leaves the reward. Without S-ICM no candidate could be chosen, and the
 # ablation would silently lose its start states too.
-# target_clip: the range the critic's target y is clipped to. "wide" (DESIGN.md) is the range the
-# method's rewards can reach, [-lambda_max, r_i_max] / (1 - gamma); "baselines" is Baselines' own
-# [-1/(1-gamma), 0] (clip_pos_returns), which the paper's Baselines-based code may have kept: it
-# stops Q from growing on accumulated curiosity. `acder-baselines-clip` is ACDER with it, an
-# experiment of ours (not in the paper) on why our ACDER differs from the paper's.
+# The critic's target clip is not a switch of a method but a setting of every run
+# (`Config.target_clip`): protocol v2 gives every method Baselines' [-1/(1-gamma), 0].
 METHODS: dict[str, dict] = {
-    "ddpg": dict(her=False, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none", target_clip="wide"),
-    "her": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none", target_clip="wide"),
-    "her-icm": dict(her=True, curiosity="icm", curiosity_reward=True, goal_factor=False, start_states=False, priority="none", target_clip="wide"),
-    "her-per": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="per", target_clip="wide"),
-    "her-ebp": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="ebp", target_clip="wide"),
-    "acder": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=True, priority="none", target_clip="wide"),
-    "acder-no-curiosity": dict(her=True, curiosity="sicm", curiosity_reward=False, goal_factor=True, start_states=True, priority="none", target_clip="wide"),
-    "acder-no-goal-factor": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=False, start_states=True, priority="none", target_clip="wide"),
-    "acder-no-start-states": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=False, priority="none", target_clip="wide"),
-    "acder-baselines-clip": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=True, priority="none", target_clip="baselines"),
+    "ddpg": dict(her=False, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none"),
+    "her": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none"),
+    "her-icm": dict(her=True, curiosity="icm", curiosity_reward=True, goal_factor=False, start_states=False, priority="none"),
+    "her-per": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="per"),
+    "her-ebp": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="ebp"),
+    "acder": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=True, priority="none"),
+    "acder-no-curiosity": dict(her=True, curiosity="sicm", curiosity_reward=False, goal_factor=True, start_states=True, priority="none"),
+    "acder-no-goal-factor": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=False, start_states=True, priority="none"),
+    "acder-no-start-states": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=False, priority="none"),
 }
 
-# Paper, section V-B: eta = 0.05 on Reach, 0.8 elsewhere; alpha0 = 0.8 (0.7 on the multi-step task).
+# Paper, section V-B: eta = 0.05 on Reach, 0.8 elsewhere; alpha0 = 0.8 (0.7 on the multi-step task);
+# 25 / 50 / 100 epochs. Table I: Reach counts episodes to 100% test success, Push and Pick&Place to
+# 95%. Baselines' experiment/config.py: FetchReach's epochs have 10 cycles, the others 50.
 TASK_PRESETS: dict[str, dict] = {
-    "FetchReach-v4": dict(eta=0.05, alpha0=0.8),
-    "FetchPush-v4": dict(eta=0.8, alpha0=0.8),
-    "FetchPickAndPlace-v4": dict(eta=0.8, alpha0=0.8),
-    "FetchSlide-v4": dict(eta=0.8, alpha0=0.8),
+    "FetchReach-v4": dict(eta=0.05, alpha0=0.8, epochs=25, cycles=10, success_threshold=1.0),
+    "FetchPush-v4": dict(eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95),
+    "FetchPickAndPlace-v4": dict(eta=0.8, alpha0=0.8, epochs=100, cycles=50, success_threshold=0.95),
+    "FetchSlide-v4": dict(eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95),
 }
+
+PRESET_FIELDS = ("eta", "alpha0", "epochs", "cycles", "success_threshold")
+"""Config fields whose None means "the task's preset" (filled by `Config.resolve`)."""
+
+TARGET_CLIPS = ("baselines", "wide")
+INITS = ("xavier", "torch")
+BUFFER_SCOPES = ("worker", "shared")
+SICM_INPUTS = ("normalised", "raw")
+
+# Protocol v1 (experiments/protocol-v1/): what a config.json written before a field existed meant.
+# `Config.from_dict` fills these in, so an old run's recorded config still reproduces it.
+LEGACY_VALUES = dict(init="torch", buffer_scope="shared", sicm_input="normalised")
+LEGACY_METHODS = {"acder-baselines-clip": ("acder", "baselines")}
+"""Methods of protocol v1 that are now a method plus a setting: name -> (method, target_clip)."""
 
 
 UPDATE_DTYPES = ("float32", "bfloat16")
@@ -70,28 +82,42 @@ class Config:
     # --- the paper protocol (Baselines' DDPG+HER, 4 MPI workers emulated in one process)
     workers: int = 4
     """W envs stepped together; stands in for the paper's W MPI workers."""
-    epochs: int = 50
-    """Training epochs (Reach 25, Push 50, Pick&Place 100 in the paper)."""
-    cycles: int = 50
-    """Cycles per epoch."""
+    epochs: int | None = None
+    """Training epochs; the run's budget. None: the task preset (paper: Reach 25, Push 50,
+    Pick&Place 100)."""
+    cycles: int | None = None
+    """Cycles per epoch. None: the task preset (Baselines: 10 on FetchReach, 50 elsewhere)."""
     episodes_per_cycle: int = 2
     """Episodes each worker collects per cycle (Baselines' rollout_batch_size)."""
     updates_per_cycle: int = 40
     """Gradient steps per cycle (Baselines' n_batches)."""
     batch_size: int = 256
     """Minibatch per worker; one update uses batch_size*workers transitions (gradients averaged)."""
-    test_episodes: int = 10
-    """Deterministic test episodes per worker after each epoch."""
+    test_episodes: int = 20
+    """Deterministic test episodes per worker after each epoch (Baselines: n_test_rollouts=10 x
+    rollout_batch_size=2; protocol v1 used 10)."""
     eval_every_cycles: int = 0
     """Also evaluate every N cycles (0: only at the end of each epoch). Table I suggests 5."""
     buffer_size: int = 1_000_000
-    """Replay capacity in transitions (episodes of T steps are stored whole)."""
+    """Replay capacity in transitions (episodes of T steps are stored whole), per worker when
+    `buffer_scope` is 'worker'."""
+    buffer_scope: str = "worker"
+    """'worker': the buffer holds buffer_size transitions per worker, as each Baselines MPI worker
+    keeps its own 10^6 (one shared buffer of W x buffer_size, sampled uniformly); 'shared':
+    buffer_size in all (protocol v1)."""
 
     # --- DDPG (Baselines' defaults)
     hidden: int = 256
     """Units per hidden layer of actor and critic."""
     layers: int = 3
     """Hidden layers of actor and critic."""
+    init: str = "xavier"
+    """Weights of every network: 'xavier' (Baselines' nn(): Xavier-uniform weights, zero biases)
+    or 'torch' (PyTorch's nn.Linear default, protocol v1)."""
+    target_clip: str = "baselines"
+    """Range of the critic's target y: 'baselines' ([-1/(1-gamma), 0], Baselines'
+    clip_pos_returns, for every method) or 'wide' ([-lambda_max, r_i_max] / (1 - gamma), the
+    range ACDER's shaped rewards can reach: protocol v1's ACDER)."""
     lr_actor: float = 1e-3
     """Adam learning rate of the actor."""
     lr_critic: float = 1e-3
@@ -124,6 +150,9 @@ class Config:
     """Eq. 9 initial ratio of novel starts, in [0, 1]. None: the task preset (0.8)."""
     sicm_hidden: int = 256
     """Hidden units of S-ICM's forward model (paper: one hidden layer of 256; 3 layers in all)."""
+    sicm_input: str = "normalised"
+    """What S-ICM sees and predicts (Eq. 7-8): 'normalised' (o, g), the policy's inputs, or 'raw'
+    (o, g), clipped to clip_obs only. The paper does not say; experiments/readings/ measures both."""
     sicm_lr: float = 1e-3
     """Adam learning rate of the forward model (S-ICM or ICM)."""
     pool_size: int = 50
@@ -156,15 +185,16 @@ class Config:
     per update on CPUs with AVX512-BF16 (measured: `bench --update-dtype`) but is a different
     computation: compare learning curves before mixing its runs with float32 ones. Acting,
     evaluation and S-ICM (whose errors are the intrinsic reward) stay fp32."""
-    stop_after_success: float = 0.0
-    """Stop early once test success >= this for `stop_patience` evaluations in a row (0: never)."""
-    stop_patience: int = 3
-    """See `stop_after_success`."""
+    success_threshold: float | None = None
+    """Test success rate Table I counts episodes to and the stop rule holds. None: the task
+    preset (paper: Reach 1.0, Push and Pick&Place 0.95)."""
+    stop_patience: int = 5
+    """The stop rule: end the run once test success >= success_threshold at this many
+    evaluations in a row (with eval_every_cycles=0, epoch evaluations); 0: always run the
+    budget. The mean curve carries a stopped seed's last 5 evaluations forward (`report`)."""
     stop_gap_episodes: int = 0
-    """Also stop at the first epoch end at least this many training episodes after the test
-    success first reached `stop_after_success` (0: off). Table I counts that first crossing, so a
-    run that hovers just below its threshold would spend the rest of its budget for nothing;
-    results/ uses 1,200 (three epochs), the rule of results/scripts/end_when_hovering.sh."""
+    """Protocol v1 only: also stop at the first epoch end this many training episodes after the
+    test success first reached success_threshold (0: off)."""
 
     switches: dict = field(default_factory=dict)
     """Filled from `METHODS[method]` by `resolve()`; recorded in config.json."""
@@ -173,10 +203,9 @@ class Config:
         """Validate, then fill presets (eta, alpha0) and the method's switches. Returns self."""
         self.validate()
         preset = TASK_PRESETS[self.env]
-        if self.eta is None:
-            self.eta = preset["eta"]
-        if self.alpha0 is None:
-            self.alpha0 = preset["alpha0"]
+        for name in PRESET_FIELDS:
+            if getattr(self, name) is None:
+                setattr(self, name, preset[name])
         self.switches = dict(METHODS[self.method])
         self.validate()
         return self
@@ -198,10 +227,13 @@ class Config:
             raise ConfigError(f"method={self.method!r} needs a task with an object; "
                               f"env={self.env!r} has none (allowed: {', '.join(OBJECT_ENVS)})")
         for name in ("workers", "epochs", "cycles", "episodes_per_cycle", "batch_size", "hidden",
-                     "layers", "sicm_hidden", "pool_size", "icm_feature_dim", "threads", "stop_patience"):
+                     "layers", "sicm_hidden", "pool_size", "icm_feature_dim", "threads"):
+            if name in PRESET_FIELDS and getattr(self, name) is None:
+                continue
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 bad(name, "an integer >= 1")
-        for name in ("updates_per_cycle", "test_episodes", "eval_every_cycles", "replay_k", "stop_gap_episodes"):
+        for name in ("updates_per_cycle", "test_episodes", "eval_every_cycles", "replay_k",
+                     "stop_patience", "stop_gap_episodes"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
                 bad(name, "an integer >= 0")
         if self.buffer_size < 1000:
@@ -212,9 +244,15 @@ class Config:
         for name in ("gamma", "polyak"):
             if not 0 <= getattr(self, name) < 1:
                 bad(name, "a number in [0, 1)")
-        for name in ("noise_eps", "random_eps", "per_alpha", "per_beta0", "stop_after_success"):
+        for name in ("noise_eps", "random_eps", "per_alpha", "per_beta0"):
             if not 0 <= getattr(self, name) <= 1:
                 bad(name, "a number in [0, 1]")
+        if self.success_threshold is not None and not 0 < self.success_threshold <= 1:
+            bad("success_threshold", "a number in (0, 1]")
+        for name, allowed in (("target_clip", TARGET_CLIPS), ("init", INITS),
+                              ("buffer_scope", BUFFER_SCOPES), ("sicm_input", SICM_INPUTS)):
+            if getattr(self, name) not in allowed:
+                bad(name, " or ".join(repr(x) for x in allowed))
         for name in ("action_l2", "clip_obs", "norm_eps", "norm_clip", "per_eps", "ebp_clip_energy",
                      "ebp_w_potential", "ebp_w_kinetic", "icm_beta"):
             if not getattr(self, name) >= 0:
@@ -231,13 +269,40 @@ class Config:
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
+    @property
+    def buffer_capacity(self) -> int:
+        """Transitions the one replay buffer holds (`buffer_scope`)."""
+        return self.buffer_size * (self.workers if self.buffer_scope == "worker" else 1)
+
     @classmethod
     def from_dict(cls, d: dict) -> "Config":
+        """A Config from config.json's "config" (or a checkpoint's). A dict written before a
+        field existed (protocol v1) gets the value that run used (`LEGACY_VALUES`)."""
+        d = upgrade_legacy(d)
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(d) - known)
         if unknown:
             raise ConfigError(f"unknown config field {unknown[0]!r}; allowed: {', '.join(sorted(known))}")
         return cls(**d)
+
+
+def upgrade_legacy(d: dict) -> dict:
+    """A protocol-v1 config dict in today's fields, meaning the same run (a copy)."""
+    d = dict(d)
+    if "target_clip" not in d:
+        d["target_clip"] = (d.get("switches") or {}).get("target_clip", "wide")
+    if d.get("method") in LEGACY_METHODS:
+        d["method"], d["target_clip"] = LEGACY_METHODS[d["method"]]
+    for name, value in LEGACY_VALUES.items():
+        d.setdefault(name, value)
+    if "stop_after_success" in d:  # v1: 0 meant "never stop early"
+        thr = d.pop("stop_after_success")
+        d.setdefault("success_threshold", thr if thr > 0 else None)
+        if not thr > 0:
+            d["stop_patience"] = 0
+    if isinstance(d.get("switches"), dict):
+        d["switches"] = {k: v for k, v in d["switches"].items() if k != "target_clip"}
+    return d
 
 
 def fast_mode() -> bool:

@@ -44,8 +44,8 @@ class DDPG:
 
     def __init__(self, in_dim: int, act_dim: int, cfg, max_u: float = 1.0):
         self.cfg = cfg
-        self.actor = Actor(in_dim, act_dim, cfg.hidden, cfg.layers, max_u)
-        self.critic = Critic(in_dim, act_dim, cfg.hidden, cfg.layers, max_u)
+        self.actor = Actor(in_dim, act_dim, cfg.hidden, cfg.layers, max_u, cfg.init)
+        self.critic = Critic(in_dim, act_dim, cfg.hidden, cfg.layers, max_u, cfg.init)
         self.actor_targ = copy.deepcopy(self.actor).requires_grad_(False)
         self.critic_targ = copy.deepcopy(self.critic).requires_grad_(False)
         # fused: one kernel per optimiser step instead of ~10 small ops per tensor (measured ~10%

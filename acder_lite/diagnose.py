@@ -48,8 +48,8 @@ def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
         for _ in range(batches):
             b = trainer.sample_batch()
             tb = trainer.batch_tensors(b)
-            x2 = tb["x2"]
-            err, pred = trainer.curiosity.errors(tb["x"], tb["u"], x2)
+            x, x2 = trainer.curiosity_inputs(b, tb)
+            err, pred = trainer.curiosity.errors(x, tb["u"], x2)
             errs.append(err.numpy())
             succ.append(trainer.buffer.success[b["ep"]])
             sq = sq + (pred - x2).pow(2).mean(0).numpy() / batches

@@ -15,7 +15,8 @@ def intrinsic_reward(pred_next: np.ndarray, next_state: np.ndarray, eta: float) 
     """Eq. 4: r^i_t = clip(1/2 * ||F(s_t, a_t) - s_{t+1}||_2^2, 0, eta), one value per row.
 
     `pred_next` is S-ICM's prediction F(s_t, a_t), `next_state` the actual s_{t+1} (both the
-    normalised (o, g) of DESIGN.md), shapes (B, D). Returns shape (B,).
+    (o, g) S-ICM sees, `Config.sicm_input`), shapes (B, D). Returns shape (B,). The trainer calls
+    this on every minibatch (ICM's reward too, on its features).
     """
     err = np.asarray(pred_next, np.float64) - np.asarray(next_state, np.float64)
     return np.clip(0.5 * np.sum(err * err, axis=-1), 0.0, eta)
@@ -42,3 +43,24 @@ def goal_oriented_factor(agent_pos: np.ndarray, goal: np.ndarray, action: np.nda
 def goal_oriented_reward(r_her: np.ndarray, lam: np.ndarray) -> np.ndarray:
     """Eq. 5: r^{e*}_t = lambda_r * r(s_t, a_t, g^h)."""
     return lam * r_her
+
+
+def shaped_reward(r_her: np.ndarray, relabelled: np.ndarray, agent_pos: np.ndarray, goal: np.ndarray,
+                  action: np.ndarray, r_int: np.ndarray | None = None,
+                  goal_factor: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """The reward the critic learns from: r = lambda * r_her + r_i (Eq. 4-6). Returns (r, lambda).
+
+    lambda is Eq. 6 on the rows HER relabelled (`relabelled`, the goal is g^h) and 1 on the others
+    (their goal is the episode's own: Eq. 5 is written for hindsight goals), or 1 everywhere with
+    `goal_factor` off. `r_int` (Eq. 4) is added where given. The trainer, chapter 5 and the tests
+    all call this one function.
+    """
+    r_her = np.asarray(r_her, np.float32)
+    lam = np.ones_like(r_her)
+    if goal_factor:
+        h = np.asarray(relabelled, bool)
+        lam[h] = goal_oriented_factor(agent_pos[h], goal[h], action[h])
+    r = goal_oriented_reward(r_her, lam)
+    if r_int is not None:
+        r = r + r_int
+    return r.astype(np.float32), lam

@@ -2,7 +2,8 @@
 
 `python -m acder_lite sweep --envs FetchReach-v4 FetchPush-v4 --methods her acder --seeds 0 1 2`
 starts one `python -m acder_lite train ... --out RESULTS/<env>/<method>/seed<k>` per cell, at
-most `--jobs` at a time, each logging to `DIR/train.log`. Re-running the same command is safe:
+most `--jobs` at a time, each logging to `DIR/train.log`. `sweep --plan results/plan.toml` runs
+the cells a plan file declares instead (`read_plan`): the same command every session. Re-running the same command is safe:
 a cell with `done.json` is skipped, one with `checkpoint.pt` (and no `done.json`) is resumed with
 `--resume DIR`, an empty or missing one starts fresh; anything else (a live run, a progress.csv
 without checkpoint) is left alone. Ctrl-C (SIGINT, or SIGTERM) forwards SIGINT to the
@@ -11,6 +12,7 @@ running children, waits until they have exited (leaving their checkpoints) and r
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import shlex
 import signal
@@ -18,10 +20,10 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from .config import ENV_IDS, METHODS, OBJECT_ENVS
+from .config import ENV_IDS, METHODS, OBJECT_ENVS, Config, ConfigError
 
 EXIT_INTERRUPTED = 130
 """Return code after Ctrl-C (128 + SIGINT), as a shell reports it."""
@@ -42,10 +44,14 @@ class Cell:
     """'run' (fresh), 'resume' (checkpoint.pt, no done.json) or 'skip' (see `plan`)."""
     note: str = ""
     """Why a cell is skipped, or what was found in its directory."""
+    options: dict = field(default_factory=dict)
+    """Config fields this cell sets (a plan group's `config`), passed to train as --field value."""
+    hold: str = ""
+    """A plan group on hold: why (the cell is skipped with this note)."""
 
     @property
     def name(self) -> str:
-        return f"{self.env}/{self.method}/seed{self.seed}"
+        return "/".join(self.out.parts[-3:])
 
 
 def run_dir(results: str | Path, env: str, method: str, seed: int) -> Path:
@@ -95,36 +101,104 @@ def cell_state(out: Path, live: dict[str, int] | None = None) -> str:
     return "new"
 
 
-def plan(envs, methods, seeds, results) -> list[Cell]:
-    """The grid in env-major order, each cell with its action. Assumes names were validated.
+def plan_cell(cell: Cell, live: dict[str, int] | None = None) -> Cell:
+    """`cell` with its action (and note) set from what its folder holds. Returns the cell.
 
     Never touches a folder that is complete, written by a live process, or holds a progress.csv
     it cannot resume (no checkpoint.pt: committed results, or a run stopped before its first epoch).
     """
-    cells = []
+    live = live_runs() if live is None else live
+    if METHODS[cell.method]["priority"] == "ebp" and cell.env not in OBJECT_ENVS:
+        cell.action, cell.note = "skip", f"{cell.method} needs a task with an object"
+        return cell
+    state = cell_state(cell.out, live)
+    if state == "done":
+        cell.action, cell.note = "skip", "already complete"
+    elif state == "running":
+        cell.action, cell.note = "skip", f"a live train process writes to it, pid {live[os.path.realpath(cell.out)]}"
+    elif cell.hold:
+        cell.action, cell.note = "skip", f"on hold: {cell.hold}"
+    elif state == "interrupted":
+        cell.action, cell.note = "resume", "checkpoint.pt found"
+    elif state == "orphan":
+        cell.action, cell.note = "skip", ("progress.csv without checkpoint.pt or done.json: nothing to "
+                                          "resume; remove the folder to start over")
+    else:
+        cell.action, cell.note = "run", ""
+    return cell
+
+
+def plan(envs, methods, seeds, results) -> list[Cell]:
+    """The grid in env-major order, each cell with its action (`plan_cell`). Assumes names were validated."""
     live = live_runs()
-    for env in envs:
-        for method in methods:
-            for seed in seeds:
-                out = run_dir(results, env, method, seed)
-                if METHODS[method]["priority"] == "ebp" and env not in OBJECT_ENVS:
-                    cells.append(Cell(env, method, seed, out, "skip",
-                                      f"{method} needs a task with an object"))
-                    continue
-                state = cell_state(out, live)
-                if state == "done":
-                    cells.append(Cell(env, method, seed, out, "skip", "already complete"))
-                elif state == "running":
-                    cells.append(Cell(env, method, seed, out, "skip",
-                                      f"a live train process writes to it, pid {live[os.path.realpath(out)]}"))
-                elif state == "interrupted":
-                    cells.append(Cell(env, method, seed, out, "resume", "checkpoint.pt found"))
-                elif state == "orphan":
-                    cells.append(Cell(env, method, seed, out, "skip", "progress.csv without checkpoint.pt "
-                                      "or done.json: nothing to resume; remove the folder to start over"))
-                else:
-                    cells.append(Cell(env, method, seed, out, "run"))
-    return cells
+    return [plan_cell(Cell(env, method, seed, run_dir(results, env, method, seed), ""), live)
+            for env in envs for method in methods for seed in seeds]
+
+
+class PlanError(ValueError):
+    """A bad plan file; the message is one line naming the file, the group and the field."""
+
+
+_GROUP_KEYS = {"envs", "methods", "seeds", "root", "name", "config", "queue", "hold", "note"}
+
+
+def read_plan(path: str | Path) -> list[Cell]:
+    """The cells of a plan file (TOML), in the order they are to start, each with its action.
+
+    A plan is a list of `[[group]]` tables, each a grid: `envs`, `methods`, `seeds` (lists);
+    `root` (folder of <env>/<name>/seed<k>, relative to the plan's own folder; default: that
+    folder); `name` (the folder under <env>/, default the method; needs one method); `config`
+    (Config fields the runs set, e.g. {sicm_input = "raw"}); `queue` (default "grid"); `hold`
+    (a reason: the group is planned but not started). A `[defaults]` table gives every group its
+    keys (a group's own win; `config` tables merge). Cells of different queues alternate, so
+    two queues share the cores; within a queue they keep the file's order.
+    """
+    import tomllib
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            doc = tomllib.load(f)
+    except OSError as e:
+        raise PlanError(f"plan {str(path)!r} cannot be read: {e.strerror}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise PlanError(f"plan {str(path)!r} is not valid TOML: {e}") from None
+    groups = doc.get("group")
+    if not isinstance(groups, list) or not groups:
+        raise PlanError(f"plan {str(path)!r} has no [[group]] tables; allowed: one or more")
+    defaults = doc.get("defaults", {})
+    if not isinstance(defaults, dict) or set(defaults) - _GROUP_KEYS:
+        raise PlanError(f"plan {str(path)!r}: [defaults] may hold only: {', '.join(sorted(_GROUP_KEYS))}")
+    queues: dict[str, list[Cell]] = {}
+    live = live_runs()
+    for i, g in enumerate(groups, 1):
+        where = f"plan {str(path)!r}, group {i}"
+        g = {**defaults, **g, "config": {**defaults.get("config", {}), **g.get("config", {})}}
+        unknown = sorted(set(g) - _GROUP_KEYS)
+        if unknown:
+            raise PlanError(f"{where}: unknown key {unknown[0]!r}; allowed: {', '.join(sorted(_GROUP_KEYS))}")
+        for key in ("envs", "methods", "seeds"):
+            if not isinstance(g.get(key), list) or not g[key]:
+                raise PlanError(f"{where}: {key} must be a non-empty list")
+        problem = _check_names(g["envs"], g["methods"], g["seeds"])
+        if problem:
+            raise PlanError(f"{where}: {problem}")
+        if "name" in g and len(g["methods"]) != 1:
+            raise PlanError(f"{where}: name needs exactly one method, not {len(g['methods'])}")
+        options = g.get("config", {})
+        try:
+            Config.from_dict(dict(options, env=g["envs"][0], method=g["methods"][0])).resolve()
+        except (ConfigError, TypeError) as e:
+            raise PlanError(f"{where}: config: {e}") from None
+        root = Path(os.path.normpath(path.parent / g.get("root", ".")))
+        for env, method, seed in itertools.product(g["envs"], g["methods"], g["seeds"]):
+            out = run_dir(root, env, g.get("name", method), seed)
+            cell = Cell(env, method, seed, out, "", options=dict(options), hold=str(g.get("hold", "")))
+            queues.setdefault(str(g.get("queue", "grid")), []).append(plan_cell(cell, live))
+    names = [c.name for q in queues.values() for c in q]
+    dup = next((n for n in names if names.count(n) > 1), None)
+    if dup:
+        raise PlanError(f"plan {str(path)!r}: the run folder {dup!r} is planned twice; allowed: once")
+    return [c for batch in itertools.zip_longest(*queues.values()) for c in batch if c is not None]
 
 
 def train_command(cell: Cell, args) -> list[str]:
@@ -136,6 +210,8 @@ def train_command(cell: Cell, args) -> list[str]:
     cmd = [sys.executable, "-m", "acder_lite", "train", "--env", cell.env, "--method", cell.method,
            "--seed", str(cell.seed)]
     cmd += ["--resume", str(cell.out)] if cell.action == "resume" else ["--out", str(cell.out)]
+    for name, value in cell.options.items():
+        cmd += ["--" + name.replace("_", "-"), str(value)]
     for flag, value in (("--epochs", args.epochs), ("--workers", args.workers),
                         ("--eval-every-cycles", args.eval_every_cycles),
                         ("--stop-after-success", args.stop_after_success),
@@ -148,11 +224,14 @@ def train_command(cell: Cell, args) -> list[str]:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `python -m acder_lite sweep`."""
-    parser.add_argument("--envs", nargs="+", required=True, metavar="ENV",
+    parser.add_argument("--plan", default=None, metavar="FILE",
+                        help="a plan file (TOML, see `read_plan`), e.g. results/plan.toml, instead of "
+                             "--envs/--methods/--seeds")
+    parser.add_argument("--envs", nargs="+", default=None, metavar="ENV",
                         help="tasks, e.g. FetchReach-v4 FetchPush-v4")
-    parser.add_argument("--methods", nargs="+", required=True, metavar="METHOD",
+    parser.add_argument("--methods", nargs="+", default=None, metavar="METHOD",
                         help="rows of the method table, e.g. her acder")
-    parser.add_argument("--seeds", nargs="+", type=int, required=True, metavar="N")
+    parser.add_argument("--seeds", nargs="+", type=int, default=None, metavar="N")
     parser.add_argument("--results", default="results", help="root of <env>/<method>/seed<k> (default: results)")
     parser.add_argument("--jobs", type=int, default=None,
                         help="runs at once (default: os.cpu_count())")
@@ -172,16 +251,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def check_args(args) -> str | None:
     """The first problem with the options, as one line, or None. Fills the defaults of jobs/threads."""
-    for env in args.envs:
-        if env not in ENV_IDS:
-            return f"unknown env {env!r}; allowed: {', '.join(ENV_IDS)}"
-    for method in args.methods:
-        if method not in METHODS:
-            return f"unknown method {method!r}; allowed: {', '.join(METHODS)}"
-    if any(s < 0 for s in args.seeds):
-        return "seeds must be integers >= 0"
-    if len(set(args.seeds)) != len(args.seeds):
-        return "seeds must be distinct"
+    grid = [args.envs, args.methods, args.seeds]
+    if args.plan is not None:
+        if any(x is not None for x in grid):
+            return "--plan FILE and --envs/--methods/--seeds exclude each other; allowed: one of them"
+    elif any(x is None for x in grid):
+        return "--envs, --methods and --seeds are required (or --plan FILE)"
+    else:
+        problem = _check_names(*grid)
+        if problem:
+            return problem
     cores = os.cpu_count() or 1
     if args.jobs is None:
         args.jobs = cores
@@ -208,6 +287,20 @@ def check_args(args) -> str | None:
     return None
 
 
+def _check_names(envs, methods, seeds) -> str | None:
+    for env in envs:
+        if env not in ENV_IDS:
+            return f"unknown env {env!r}; allowed: {', '.join(ENV_IDS)}"
+    for method in methods:
+        if method not in METHODS:
+            return f"unknown method {method!r}; allowed: {', '.join(METHODS)}"
+    if any(not isinstance(s, int) or s < 0 for s in seeds):
+        return "seeds must be integers >= 0"
+    if len(set(seeds)) != len(seeds):
+        return "seeds must be distinct"
+    return None
+
+
 def _say(msg: str) -> None:
     print(f"sweep: {msg}", flush=True)
 
@@ -224,7 +317,7 @@ def _child_env(threads: int) -> dict:
 
 def _replan(cell: Cell) -> Cell:
     """The cell planned again just before it starts (hours may have passed since the plan)."""
-    return plan([cell.env], [cell.method], [cell.seed], cell.out.parent.parent.parent)[0]
+    return plan_cell(cell)
 
 
 def _start(cell: Cell, args) -> tuple[subprocess.Popen, object, float]:
@@ -286,7 +379,14 @@ def run(args) -> int:
     if problem:
         print(f"error: sweep: {problem}", file=sys.stderr)
         return 2
-    cells = plan(args.envs, args.methods, args.seeds, args.results)
+    if args.plan is not None:
+        try:
+            cells = read_plan(args.plan)
+        except PlanError as e:
+            print(f"error: sweep: {e}", file=sys.stderr)
+            return 2
+    else:
+        cells = plan(args.envs, args.methods, args.seeds, args.results)
     if args.dry_run:
         for c in cells:
             print(f"{c.action:<6} {c.name:<40} {c.out}" + (f"  ({c.note})" if c.note else ""))

@@ -1,8 +1,9 @@
 """The one trainer: rollouts, storage, HER sampling, rewards, DDPG and curiosity updates.
 
-The paper's protocol in one process (DESIGN.md): W envs stepped together, 2 episodes per worker
-per cycle, 40 updates per cycle on minibatches of 256*W, 50 cycles an epoch, 10 deterministic test
-episodes per worker after each epoch. A method (`Config.method`) only flips switches here.
+The paper's protocol in one process (DESIGN.md, protocol v2): W envs stepped together, 2 episodes
+per worker per cycle, 40 updates per cycle on minibatches of 256*W, 50 cycles an epoch (10 on
+FetchReach), 20 deterministic test episodes per worker after each epoch. A method
+(`Config.method`) only flips switches here.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ from .ddpg import DDPG
 from .her import sample_her_transitions
 from .io import save_torch, write_csv, write_json
 from .normalizer import Normalizer
-from .rewards import goal_oriented_factor
+from .rewards import intrinsic_reward, shaped_reward
 from .start_states import StartStateSelector
 
 BASE_COLUMNS = ["epoch", "cycle", "episodes", "env_steps", "test_success", "train_success",
@@ -137,15 +138,16 @@ def run_episodes(envs: list, act, T: int, starts=None) -> dict:
     return dict(o=o, ag=ag, state=state, g=g, u=u, success=success, novel=novel)
 
 
-def target_clip(switches: dict, eta: float, gamma: float) -> tuple[float, float]:
-    """The range the critic's target y is clipped to (`compute_loss_q`), by the method's switches.
+def target_clip(clip: str, switches: dict, eta: float, gamma: float) -> tuple[float, float]:
+    """The range the critic's target y is clipped to (`compute_loss_q`), `Config.target_clip`.
 
-    "wide" (DESIGN.md): the rewards lambda * r_her + r_i lie in [-lambda_max, r_i_max], so y is
-    clipped to that range over 1 - gamma, lambda_max = 1.5 with the goal factor (Eq. 6), r_i_max =
-    eta when r_i is in the reward (Eq. 4). "baselines": Baselines' [-1/(1-gamma), 0] whatever the
-    rewards (its clip_pos_returns), so accumulated curiosity cannot make Q positive.
+    "baselines" (protocol v2, every method): Baselines' [-1/(1-gamma), 0] whatever the rewards
+    (its clip_pos_returns), so accumulated curiosity cannot make Q positive. "wide" (protocol v1's
+    ACDER): the rewards lambda * r_her + r_i lie in [-lambda_max, r_i_max], so y is clipped to that
+    range over 1 - gamma, lambda_max = 1.5 with the goal factor (Eq. 6), r_i_max = eta when r_i is
+    in the reward (Eq. 4).
     """
-    if switches["target_clip"] == "baselines":
+    if clip == "baselines":
         return (-1.0 / (1 - gamma), 0.0)
     lam_max = 1.5 if switches["goal_factor"] else 1.0
     r_i_max = eta if switches["curiosity_reward"] else 0.0
@@ -171,7 +173,7 @@ class Trainer:
         dims = dict(o=obs["observation"].size, g=obs["desired_goal"].size,
                     u=env0.action_space.shape[0], state=E.state_size(env0))
         self.dims = dims
-        self.buffer = EpisodeBuffer(cfg.buffer_size, self.T, dims)
+        self.buffer = EpisodeBuffer(cfg.buffer_capacity, self.T, dims)
         self.o_norm = Normalizer(dims["o"], cfg.norm_eps, cfg.norm_clip)
         self.g_norm = Normalizer(dims["g"], cfg.norm_eps, cfg.norm_clip)
         s_dim = dims["o"] + dims["g"]
@@ -179,9 +181,10 @@ class Trainer:
         self.policy = Policy(self.agent.actor, self.o_norm, self.g_norm, cfg.clip_obs)
         self.curiosity = None
         if sw["curiosity"] == "sicm":
-            self.curiosity = SICM(s_dim, dims["u"], cfg.sicm_hidden, cfg.sicm_lr)
+            self.curiosity = SICM(s_dim, dims["u"], cfg.sicm_hidden, cfg.sicm_lr, cfg.init)
         elif sw["curiosity"] == "icm":
-            self.curiosity = ICM(s_dim, dims["u"], cfg.icm_feature_dim, cfg.sicm_hidden, cfg.icm_beta, cfg.sicm_lr)
+            self.curiosity = ICM(s_dim, dims["u"], cfg.icm_feature_dim, cfg.sicm_hidden, cfg.icm_beta,
+                                 cfg.sicm_lr, cfg.init)
         self.selector = StartStateSelector(cfg.pool_size, cfg.alpha0) if sw["start_states"] else None
         self.per = self.ebp = None
         if sw["priority"] == "per":
@@ -190,7 +193,7 @@ class Trainer:
         elif sw["priority"] == "ebp":
             from .priority import EnergyPrioritizer
             self.ebp = EnergyPrioritizer(self.buffer.size)
-        self.clip_return = target_clip(sw, cfg.eta, cfg.gamma)
+        self.clip_return = target_clip(cfg.target_clip, sw, cfg.eta, cfg.gamma)
         # progress
         self.cycle = 0               # cycles done in all
         self.episodes = 0            # training episodes (all workers)
@@ -294,23 +297,32 @@ class Trainer:
         Also the curiosity module's training step (Eq. 7-8, same minibatch) and the start-state
         candidate of this minibatch; r_i stays out of r when the method's `curiosity_reward` is off.
         """
-        r = batch["r"].astype(np.float32)
-        if self.cfg.switches["goal_factor"]:
-            lam = np.ones_like(r)
-            h = batch["her"]
-            lam[h] = goal_oriented_factor(batch["o"][h, :3], batch["g"][h], batch["u"][h])
-            r = lam * r
-            self.diag["lam"] += float(lam.mean())
-        r_t = torch.from_numpy(r)
+        sw = self.cfg.switches
+        r_int = None
         if self.curiosity is not None:
-            r_int, loss = self.curiosity.step(tb["x"], tb["u"], tb["x2"], self.cfg.eta)
-            if self.cfg.switches["curiosity_reward"]:
-                r_t = r_t + r_int
+            s, s2 = self.curiosity_inputs(batch, tb)
+            pred, target, loss = self.curiosity.step(s, tb["u"], s2)
+            r_int = intrinsic_reward(pred.numpy(), target.numpy(), self.cfg.eta).astype(np.float32)
             self.diag["r_int"] += float(r_int.mean())
             self.diag["cur_loss"] += float(loss)
             if self.selector is not None:
-                self.selector.offer(batch, r_int.numpy(), self.buffer)
-        return r_t
+                self.selector.offer(batch, r_int, self.buffer)
+        # agent position s^a_t = gripper position, o[:3] (DESIGN.md)
+        r, lam = shaped_reward(batch["r"], batch["her"], batch["o"][:, :3], batch["g"], batch["u"],
+                               r_int if sw["curiosity_reward"] else None, sw["goal_factor"])
+        if sw["goal_factor"]:
+            self.diag["lam"] += float(lam.mean())
+        return torch.from_numpy(r)
+
+    def curiosity_inputs(self, batch: dict, tb: dict) -> tuple[torch.Tensor, torch.Tensor]:
+        """What the curiosity module sees of a minibatch, s = (o, g) and s' = (o2, g): the policy's
+        normalised inputs, or the raw ones clipped to clip_obs (`Config.sicm_input`)."""
+        if self.cfg.sicm_input == "normalised":
+            return tb["x"], tb["x2"]
+        c = self.cfg.clip_obs
+        g = torch.as_tensor(batch["g"], dtype=torch.float32)
+        cat = lambda o: torch.cat([torch.as_tensor(o, dtype=torch.float32), g], -1).clamp(-c, c)
+        return cat(batch["o"]), cat(batch["o2"])
 
     def batch_tensors(self, batch: dict) -> dict:
         """The networks' inputs of a minibatch: normalised (o, g) as x, (o2, g) as x2, and u."""
@@ -377,20 +389,20 @@ class Trainer:
         return row
 
     def should_stop(self) -> bool:
-        """The early stop: test success >= stop_after_success at the last stop_patience evaluations."""
+        """The stop rule: test success >= success_threshold at the last stop_patience evaluations."""
         c = self.cfg
-        if c.stop_after_success <= 0 or len(self.rows) < c.stop_patience:
+        if c.stop_patience <= 0 or len(self.rows) < c.stop_patience:
             return False
-        return all(r["test_success"] >= c.stop_after_success for r in self.rows[-c.stop_patience:])
+        return all(r["test_success"] >= c.success_threshold for r in self.rows[-c.stop_patience:])
 
     def past_gap(self) -> bool:
         """stop_gap_episodes training episodes or more since the test success first reached
-        stop_after_success (checked at epoch ends only, so the run ends on a checkpoint)."""
+        success_threshold (protocol v1; checked at epoch ends only, so the run ends on a checkpoint)."""
         c = self.cfg
-        if c.stop_after_success <= 0 or c.stop_gap_episodes <= 0:
+        if c.stop_gap_episodes <= 0:
             return False
         from .table import episodes_to_threshold  # the first crossing exactly as Table I reads it
-        first = episodes_to_threshold(self.rows, c.stop_after_success)
+        first = episodes_to_threshold(self.rows, c.success_threshold)
         return first is not None and self.episodes >= first + c.stop_gap_episodes
 
     def train(self, progress: bool = True, max_cycles: int | None = None) -> list[dict]:
@@ -436,6 +448,8 @@ class Trainer:
             write_json(os.path.join(self.out_dir, "done.json"),
                        dict(epochs=self.cycle / c.cycles, episodes=self.episodes,
                             stopped_early=self.cycle < total, stop_reason=self.stop_reason,
+                            stop_rule=dict(success_threshold=c.success_threshold, patience=c.stop_patience,
+                                           budget_epochs=c.epochs, gap_episodes=c.stop_gap_episodes),
                             final_test_success=self.success_rate, wall_s=self.wall))
         return self.rows
 
