@@ -214,7 +214,7 @@ def train_command(cell: Cell, args) -> list[str]:
         cmd += ["--" + name.replace("_", "-"), str(value)]
     for flag, value in (("--epochs", args.epochs), ("--workers", args.workers),
                         ("--eval-every-cycles", args.eval_every_cycles),
-                        ("--stop-after-success", args.stop_after_success),
+                        ("--success-threshold", args.success_threshold),
                         ("--stop-patience", args.stop_patience), ("--stop-gap-episodes", args.stop_gap_episodes),
                         ("--threads", args.threads)):
         if value is not None:
@@ -240,7 +240,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--epochs", type=int, default=None, help="passed to train")
     parser.add_argument("--workers", type=int, default=None, help="passed to train")
     parser.add_argument("--eval-every-cycles", type=int, default=None, help="passed to train")
-    parser.add_argument("--stop-after-success", type=float, default=None, help="passed to train")
+    parser.add_argument("--success-threshold", type=float, default=None, help="passed to train")
     parser.add_argument("--stop-patience", type=int, default=None, help="passed to train")
     parser.add_argument("--stop-gap-episodes", type=int, default=None, help="passed to train")
     parser.add_argument("--train-args", default="", metavar="'ARGS'",
@@ -270,16 +270,16 @@ def check_args(args) -> str | None:
         args.threads = max(1, cores // args.jobs)
     if args.threads < 1:
         return f"--threads={args.threads} is not allowed: an integer >= 1"
-    for name in ("epochs", "workers", "stop_patience"):
+    for name in ("epochs", "workers"):
         value = getattr(args, name)
         if value is not None and value < 1:
             return f"--{name.replace('_', '-')}={value} is not allowed: an integer >= 1"
-    for name in ("eval_every_cycles", "stop_gap_episodes"):
+    for name in ("eval_every_cycles", "stop_patience", "stop_gap_episodes"):
         value = getattr(args, name)
         if value is not None and value < 0:
             return f"--{name.replace('_', '-')}={value} is not allowed: an integer >= 0"
-    if args.stop_after_success is not None and not 0 <= args.stop_after_success <= 1:
-        return f"--stop-after-success={args.stop_after_success} is not allowed: a number in [0, 1]"
+    if args.success_threshold is not None and not 0 < args.success_threshold <= 1:
+        return f"--success-threshold={args.success_threshold} is not allowed: a number in (0, 1]"
     try:
         shlex.split(args.train_args or "")
     except ValueError as e:
@@ -426,8 +426,8 @@ def run(args) -> int:
                     _release(cell, log)
                     del running[pid]
                     status = _finish_status(cell, rc)
-                    # a child interrupted from outside (its own Ctrl-C, or results/scripts/
-                    # end_at_epoch.sh) kept its checkpoint: not a failure, but not finished either
+                    # a child interrupted from outside (its own Ctrl-C, a kill -INT) kept its
+                    # checkpoint: not a failure, but not finished either
                     finished += status == "done"
                     interrupted += status == "interrupted"
                     failed += status not in ("done", "interrupted")

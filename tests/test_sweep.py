@@ -108,7 +108,8 @@ def test_train_command(grid):
     (["--envs", "FetchReach-v4", "--methods", "her", "--jobs", "0"], "--jobs=0"),
     (["--envs", "FetchReach-v4", "--methods", "her", "--threads", "0"], "--threads=0"),
     (["--envs", "FetchReach-v4", "--methods", "her", "--epochs", "0"], "--epochs=0"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--stop-after-success", "2"], "--stop-after-success=2"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--success-threshold", "2"], "--success-threshold=2"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--stop-patience", "-1"], "--stop-patience=-1"),
     (["--envs", "FetchReach-v4", "--methods", "her", "--stop-gap-episodes", "-1"], "--stop-gap-episodes=-1"),
     (["--envs", "FetchReach-v4", "--methods", "her", "--eval-every-cycles", "-1"], "--eval-every-cycles=-1"),
     (["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--cycles '2"], "--train-args"),
@@ -119,6 +120,95 @@ def test_argument_errors(tmp_path, capsys, argv, msg):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and msg in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_plan_and_grid_options_exclude_each_other(tmp_path, capsys):
+    assert S.run(parse(["--plan", str(tmp_path / "p.toml"), "--envs", "FetchReach-v4", "--dry-run"])) == 2
+    assert "exclude each other" in capsys.readouterr().err
+    assert S.run(parse(["--envs", "FetchReach-v4", "--dry-run"])) == 2
+    assert "required (or --plan FILE)" in capsys.readouterr().err
+
+
+PLAN = """
+[defaults]
+config = { update_dtype = "float32" }
+
+[[group]]
+queue = "readings"
+root = "../exp"
+envs = ["FetchPush-v4"]
+methods = ["acder"]
+name = "sicm-raw"
+seeds = [0, 1]
+config = { sicm_input = "raw" }
+
+[[group]]
+envs = ["FetchReach-v4", "FetchPush-v4"]
+methods = ["her", "her-ebp"]
+seeds = [0]
+
+[[group]]
+envs = ["FetchReach-v4"]
+methods = ["acder"]
+seeds = [0]
+hold = "waits for the readings"
+"""
+
+
+def test_read_plan(tmp_path):
+    """Groups expand to cells; two queues alternate; names, roots, config, defaults and holds apply."""
+    (tmp_path / "results").mkdir()
+    path = tmp_path / "results" / "plan.toml"
+    path.write_text(PLAN)
+    touch(tmp_path / "results" / "FetchReach-v4" / "her" / "seed0", "progress.csv", "checkpoint.pt")
+    cells = S.read_plan(path)
+    assert [(c.name, c.action) for c in cells] == [
+        ("FetchPush-v4/sicm-raw/seed0", "run"),
+        ("FetchReach-v4/her/seed0", "resume"),
+        ("FetchPush-v4/sicm-raw/seed1", "run"),
+        ("FetchReach-v4/her-ebp/seed0", "skip"),       # EBP needs an object
+        ("FetchPush-v4/her/seed0", "run"),
+        ("FetchPush-v4/her-ebp/seed0", "run"),
+        ("FetchReach-v4/acder/seed0", "skip"),         # on hold
+    ]
+    assert cells[0].out == tmp_path / "exp" / "FetchPush-v4" / "sicm-raw" / "seed0"
+    assert cells[0].options == {"update_dtype": "float32", "sicm_input": "raw"}
+    assert cells[4].options == {"update_dtype": "float32"}
+    assert cells[-1].note == "on hold: waits for the readings"
+    cmd = S.train_command(cells[0], parse(["--plan", str(path)]))
+    assert cmd[cmd.index("--sicm-input") + 1] == "raw" and cmd[cmd.index("--method") + 1] == "acder"
+    assert cmd[cmd.index("--out") + 1] == str(cells[0].out)
+
+
+@pytest.mark.parametrize("text, msg", [
+    ("[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\nfoo = 1\n", "unknown key 'foo'"),
+    ("[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\n", "seeds must be a non-empty list"),
+    ("[[group]]\nenvs = ['FetchFly-v4']\nmethods = ['her']\nseeds = [0]\n", "unknown env 'FetchFly-v4'"),
+    ("[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her', 'acder']\nseeds = [0]\nname = 'x'\n", "name needs exactly one method"),
+    ("[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\nconfig = { sicm_input = 'pixels' }\n", "sicm_input='pixels'"),
+    ("[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n" * 2, "planned twice"),
+    ("[[group]\n", "not valid TOML"),
+    ("x = 1\n", "no [[group]] tables"),
+])
+def test_bad_plan(tmp_path, capsys, text, msg):
+    path = tmp_path / "plan.toml"
+    path.write_text(text)
+    assert S.run(parse(["--plan", str(path), "--dry-run"])) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and msg in err and str(path) in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.toml"]  # nothing written
+
+
+def test_the_committed_plan_reads():
+    """results/plan.toml, the reproduction grid, is a valid plan: the issue's seed counts, float32."""
+    cells = S.read_plan(ROOT / "results" / "plan.toml")
+    count = lambda env, method: sum(c.env == env and c.out.parent.name == method and "results" in c.out.parts
+                                    for c in cells)
+    assert [count("FetchPush-v4", m) for m in ("her", "acder", "her-icm", "her-per", "her-ebp",
+                                                "acder-no-curiosity")] == [5, 5, 3, 3, 3, 3]
+    assert [count("FetchReach-v4", m) for m in ("her", "her-icm", "her-per", "acder", "acder-no-goal-factor")] == [5, 5, 5, 5, 3]
+    assert [count("FetchPickAndPlace-v4", m) for m in ("her", "acder", "her-ebp", "acder-no-start-states")] == [3, 3, 2, 2]
+    assert all(c.options.get("update_dtype") == "float32" for c in cells)
 
 
 def test_negative_seed(tmp_path, capsys):
@@ -144,13 +234,13 @@ def test_real_sweep_interrupt_and_restart(tmp_path):
            "--seeds", "0", "1", "--results", str(results), "--jobs", "1", "--threads", "1",
            "--epochs", "20", "--workers", "1",
            "--train-args=--cycles 2 --updates-per-cycle 2 --test-episodes 1 --batch-size 16 --hidden 16 "
-           "--buffer-size 5000 --quiet"]
+           "--buffer-size 5000 --stop-patience 0 --quiet"]
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     run0, run1 = results / "FetchReach-v4" / "her" / "seed0", results / "FetchReach-v4" / "her" / "seed1"
 
     proc = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
-        _wait_for(lambda: (run1 / "checkpoint.pt").exists(), proc, 50)
+        _wait_for(lambda: (run1 / "checkpoint.pt").exists(), proc, 150)
         proc.send_signal(signal.SIGINT)
         out, _ = proc.communicate(timeout=30)
     finally:
@@ -162,7 +252,7 @@ def test_real_sweep_interrupt_and_restart(tmp_path):
     assert (run0 / "done.json").exists() and not (run1 / "done.json").exists()
     before = {p.name: p.stat().st_mtime_ns for p in run0.iterdir()}
 
-    out = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=40).stdout
+    out = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=150).stdout
     assert "skip   FetchReach-v4/her/seed0 (already complete)" in out
     assert "start  FetchReach-v4/her/seed1 (resume)" in out
     assert "finish FetchReach-v4/her/seed1: done" in out
