@@ -52,10 +52,12 @@ def _given(args) -> dict:
             if f.name not in _NOT_OPTIONS and getattr(args, f.name, None) is not None}
 
 
-def _command_line() -> list[str]:
-    """The command as a reader would retype it (sys.argv[0] is the path of __main__.py)."""
+def _command_line(argv: list[str] | None = None) -> list[str]:
+    """The command as a reader would retype it: `argv` as given to `main` (a sweep's Ray task
+    calls main in a worker whose sys.argv is Ray's), else sys.argv without the path of __main__.py."""
     import shlex
-    return ["python", "-m", "acder_lite"] + [shlex.quote(a) for a in sys.argv[1:]]
+    argv = sys.argv[1:] if argv is None else argv
+    return ["python", "-m", "acder_lite"] + [shlex.quote(a) for a in argv]
 
 
 def cmd_train(args) -> int:
@@ -73,7 +75,7 @@ def cmd_train(args) -> int:
                 raise ConfigError(f"{k}={v!r} differs from the checkpoint's {getattr(cfg, k)!r}; "
                                   f"a resumed run may change only: {', '.join(sorted(_RESUMABLE))}")
         out = args.resume
-        trainer = Trainer(cfg, out, command=_command_line())
+        trainer = Trainer(cfg, out, command=_command_line(args.argv))
         trainer.load_state_dict(ckpt)
         trainer.done = trainer.done and trainer.cycle >= cfg.epochs * cfg.cycles
     else:
@@ -84,7 +86,7 @@ def cmd_train(args) -> int:
                              f"or --resume {args.out} to continue it")
         cfg = Config(**given)
         out = args.out
-        trainer = Trainer(cfg, out, command=_command_line())
+        trainer = Trainer(cfg, out, command=_command_line(args.argv))
     _interrupt_on_signals()
     try:
         rows = trainer.train(progress=not args.quiet)
@@ -114,18 +116,24 @@ def cmd_eval(args) -> int:
     import numpy as np
 
     from . import envs as E
-    from .io import load_torch
+    from .io import check_policy_fits, load_torch
     from .trainer import Policy, run_episodes
     if args.episodes < 1:
         raise UsageError(f"eval: --episodes {args.episodes} is not allowed: an integer >= 1")
-    ckpt = load_torch(args.checkpoint)
+    ckpt = load_torch(args.checkpoint)  # runs nothing from the file; checks the policy's keys and shapes
     pol = ckpt["policy"]
     env_id = args.env or pol["env"]
     if env_id != pol["env"]:
         raise CheckpointError(f"checkpoint {args.checkpoint!r} was trained on {pol['env']}, not {env_id}; "
                               f"allowed: --env {pol['env']}")
+    if env_id not in E.ENV_IDS:
+        raise CheckpointError(f"checkpoint {args.checkpoint!r} names env {env_id!r}; allowed: one of "
+                              f"{', '.join(E.ENV_IDS)}")
     policy = Policy.from_state_dict(pol)
     env = E.make_env(env_id, seed=args.seed)
+    first = env._get_obs()
+    check_policy_fits(pol, args.checkpoint, first["observation"].size, first["desired_goal"].size,
+                      env.action_space.shape[0])
     T = E.horizon(env_id)
     succ = [run_episodes([env], policy, T)["success"][0] for _ in range(args.episodes)]
     print(f"eval: env={env_id} method={pol['method']} episodes={args.episodes} "
@@ -178,6 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
+        args.argv = argv
         return int(args.func(args) or 0)
     except (UsageError, ConfigError, CheckpointError) as e:
         print(f"error: {e}", file=sys.stderr)

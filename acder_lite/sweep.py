@@ -1,35 +1,48 @@
-"""Run a grid of (env, method, seed) training runs as parallel, resumable subprocesses.
+"""Run a grid of (env, method, seed) training runs as Ray tasks: on a local Ray, or on a cluster.
 
-`python -m acder_lite sweep --envs FetchReach-v4 FetchPush-v4 --methods her acder --seeds 0 1 2`
-starts one `python -m acder_lite train ... --out RESULTS/<env>/<method>/seed<k>` per cell, at
-most `--jobs` at a time, each logging to `DIR/train.log`. `sweep --plan results/plan.toml` runs
-the cells a plan file declares instead (`read_plan`): the same command every session. Re-running the same command is safe:
-a cell with `done.json` is skipped, one with `checkpoint.pt` (and no `done.json`) is resumed with
-`--resume DIR`, an empty or missing one starts fresh; anything else (a live run, a progress.csv
-without checkpoint) is left alone. Ctrl-C (SIGINT, or SIGTERM) forwards SIGINT to the
-running children, waits until they have exited (leaving their checkpoints) and returns 130.
+`python -m acder_lite sweep --envs FetchReach-v4 --methods her acder --seeds 0 1 --results R`
+trains one cell per task into `R/<env>/<method>/seed<k>`; `sweep --plan results/plan.toml` runs
+the cells a plan file declares (`read_plan`): the same command every session.
+
+Each cell is one Ray task reserving `--threads` CPUs, so Ray packs as many runs as fit. The task
+decides when it starts what its folder needs: nothing (`done.json`), `train --resume` (a
+`checkpoint.pt`) or a fresh `train --out`; so Ray's own retry after a lost worker (killed
+process, lost node) resumes the run from its last checkpoint, and the trainer's determinism makes
+the result equal to an uninterrupted run's. Training runs in the task's own worker process, which
+reports its pid in the first line it writes to `train.log`. Ctrl-C cancels the running tasks:
+each stops at once and keeps its last end-of-epoch checkpoint; the same command continues.
+
+Without `--address` the sweep starts a local Ray on 127.0.0.1 (nothing to set up); with
+`--address auto` or `--address ray://HOST:PORT` it joins a running cluster, where the results
+folder must be shared storage that every node sees at the same path.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import itertools
 import os
 import shlex
-import signal
-import subprocess
+import socket
 import sys
-import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .config import ENV_IDS, METHODS, OBJECT_ENVS, Config, ConfigError
+from .config import ENV_IDS, METHODS, Config, ConfigError
 
 EXIT_INTERRUPTED = 130
 """Return code after Ctrl-C (128 + SIGINT), as a shell reports it."""
 
-POLL_S = 0.2
-"""How often the scheduler checks its children."""
+MAX_RETRIES = 3
+"""Ray's retries of a cell whose worker process died (each retry resumes from the checkpoint)."""
+
+CONNECT_TIMEOUT_S = 5.0
+"""How long `--address HOST:PORT` may take to answer before the sweep gives up (exit 2)."""
+
+LOCK = ".sweep.lock"
+"""A run folder's lock file: held (flock) by the task training into it, so two sweeps never
+write one folder; the kernel releases it when the process dies."""
 
 
 @dataclass
@@ -41,7 +54,7 @@ class Cell:
     seed: int
     out: Path
     action: str
-    """'run' (fresh), 'resume' (checkpoint.pt, no done.json) or 'skip' (see `plan`)."""
+    """'run' (fresh), 'resume' (checkpoint.pt, no done.json) or 'skip' (see `plan_cell`)."""
     note: str = ""
     """Why a cell is skipped, or what was found in its directory."""
     options: dict = field(default_factory=dict)
@@ -59,41 +72,11 @@ def run_dir(results: str | Path, env: str, method: str, seed: int) -> Path:
     return Path(results) / env / method / f"seed{seed}"
 
 
-def live_runs() -> dict[str, int]:
-    """Run folders (real paths) that a live `acder_lite train` process writes to, from /proc.
-
-    Finds runs started by hand as well as by another sweep; empty where /proc is missing.
-    """
-    found = {}
-    try:
-        pids = [int(p) for p in os.listdir("/proc") if p.isdigit()]
-    except OSError:
-        return found
-    for pid in pids:
-        try:
-            with open(f"/proc/{pid}/cmdline", "rb") as f:
-                argv = f.read().decode(errors="replace").split("\0")
-            if not any("acder_lite" in a for a in argv) or "train" not in argv:
-                continue
-            cwd = os.readlink(f"/proc/{pid}/cwd")
-        except OSError:
-            continue
-        for i, a in enumerate(argv):
-            for flag in ("--out", "--resume"):
-                if a == flag and i + 1 < len(argv):
-                    found[os.path.realpath(os.path.join(cwd, argv[i + 1]))] = pid
-                elif a.startswith(flag + "="):
-                    found[os.path.realpath(os.path.join(cwd, a.split("=", 1)[1]))] = pid
-    return found
-
-
-def cell_state(out: Path, live: dict[str, int] | None = None) -> str:
-    """What a run folder holds: 'done' (done.json), 'running' (a live train process writes to it,
-    see `live_runs`), 'interrupted' (checkpoint.pt), 'orphan' (progress.csv, no checkpoint) or 'new'."""
+def cell_state(out: Path) -> str:
+    """What a run folder holds: 'done' (done.json), 'interrupted' (checkpoint.pt), 'orphan'
+    (progress.csv, no checkpoint: committed results, or a run stopped before its first epoch) or 'new'."""
     if (out / "done.json").exists():
         return "done"
-    if live and os.path.realpath(out) in live:
-        return "running"
     if (out / "checkpoint.pt").exists():
         return "interrupted"
     if (out / "progress.csv").exists():
@@ -101,21 +84,16 @@ def cell_state(out: Path, live: dict[str, int] | None = None) -> str:
     return "new"
 
 
-def plan_cell(cell: Cell, live: dict[str, int] | None = None) -> Cell:
-    """`cell` with its action (and note) set from what its folder holds. Returns the cell.
-
-    Never touches a folder that is complete, written by a live process, or holds a progress.csv
-    it cannot resume (no checkpoint.pt: committed results, or a run stopped before its first epoch).
-    """
-    live = live_runs() if live is None else live
-    if METHODS[cell.method]["priority"] == "ebp" and cell.env not in OBJECT_ENVS:
-        cell.action, cell.note = "skip", f"{cell.method} needs a task with an object"
+def plan_cell(cell: Cell) -> Cell:
+    """`cell` with its action (and note) set from its config and what its folder holds."""
+    try:  # the one check of names and values: Config's own (an EBP cell on Reach, a bad option)
+        Config(**dict(cell.options, env=cell.env, method=cell.method, seed=cell.seed)).resolve()
+    except (ConfigError, TypeError) as e:
+        cell.action, cell.note = "skip", str(e)
         return cell
-    state = cell_state(cell.out, live)
+    state = cell_state(cell.out)
     if state == "done":
         cell.action, cell.note = "skip", "already complete"
-    elif state == "running":
-        cell.action, cell.note = "skip", f"a live train process writes to it, pid {live[os.path.realpath(cell.out)]}"
     elif cell.hold:
         cell.action, cell.note = "skip", f"on hold: {cell.hold}"
     elif state == "interrupted":
@@ -128,15 +106,14 @@ def plan_cell(cell: Cell, live: dict[str, int] | None = None) -> Cell:
     return cell
 
 
-def plan(envs, methods, seeds, results) -> list[Cell]:
-    """The grid in env-major order, each cell with its action (`plan_cell`). Assumes names were validated."""
-    live = live_runs()
-    return [plan_cell(Cell(env, method, seed, run_dir(results, env, method, seed), ""), live)
+def plan(envs, methods, seeds, results, options: dict | None = None) -> list[Cell]:
+    """The grid in env-major order, each cell with its action (`plan_cell`)."""
+    return [plan_cell(Cell(env, method, seed, run_dir(results, env, method, seed), "", options=dict(options or {})))
             for env in envs for method in methods for seed in seeds]
 
 
 class PlanError(ValueError):
-    """A bad plan file; the message is one line naming the file, the group and the field."""
+    """A bad plan file or option; the message is one line naming what is wrong and what is allowed."""
 
 
 _GROUP_KEYS = {"envs", "methods", "seeds", "root", "name", "config", "queue", "hold", "note"}
@@ -169,7 +146,6 @@ def read_plan(path: str | Path) -> list[Cell]:
     if not isinstance(defaults, dict) or set(defaults) - _GROUP_KEYS:
         raise PlanError(f"plan {str(path)!r}: [defaults] may hold only: {', '.join(sorted(_GROUP_KEYS))}")
     queues: dict[str, list[Cell]] = {}
-    live = live_runs()
     for i, g in enumerate(groups, 1):
         where = f"plan {str(path)!r}, group {i}"
         g = {**defaults, **g, "config": {**defaults.get("config", {}), **g.get("config", {})}}
@@ -184,16 +160,16 @@ def read_plan(path: str | Path) -> list[Cell]:
             raise PlanError(f"{where}: {problem}")
         if "name" in g and len(g["methods"]) != 1:
             raise PlanError(f"{where}: name needs exactly one method, not {len(g['methods'])}")
-        options = g.get("config", {})
+        options = g["config"]
         try:
-            Config.from_dict(dict(options, env=g["envs"][0], method=g["methods"][0])).resolve()
+            Config(**dict(options, env=g["envs"][0], method=g["methods"][0])).resolve()
         except (ConfigError, TypeError) as e:
             raise PlanError(f"{where}: config: {e}") from None
         root = Path(os.path.normpath(path.parent / g.get("root", ".")))
         for env, method, seed in itertools.product(g["envs"], g["methods"], g["seeds"]):
             out = run_dir(root, env, g.get("name", method), seed)
             cell = Cell(env, method, seed, out, "", options=dict(options), hold=str(g.get("hold", "")))
-            queues.setdefault(str(g.get("queue", "grid")), []).append(plan_cell(cell, live))
+            queues.setdefault(str(g.get("queue", "grid")), []).append(plan_cell(cell))
     names = [c.name for q in queues.values() for c in q]
     dup = next((n for n in names if names.count(n) > 1), None)
     if dup:
@@ -201,93 +177,8 @@ def read_plan(path: str | Path) -> list[Cell]:
     return [c for batch in itertools.zip_longest(*queues.values()) for c in batch if c is not None]
 
 
-def train_command(cell: Cell, args) -> list[str]:
-    """The `python -m acder_lite train` command line of one cell.
-
-    A resumed cell gets `--resume DIR` and the same options as a fresh one: train accepts a
-    changed epochs/threads/stop option and refuses (exit 2, in train.log) any other change.
-    """
-    cmd = [sys.executable, "-m", "acder_lite", "train", "--env", cell.env, "--method", cell.method,
-           "--seed", str(cell.seed)]
-    cmd += ["--resume", str(cell.out)] if cell.action == "resume" else ["--out", str(cell.out)]
-    for name, value in cell.options.items():
-        cmd += ["--" + name.replace("_", "-"), str(value)]
-    for flag, value in (("--epochs", args.epochs), ("--workers", args.workers),
-                        ("--eval-every-cycles", args.eval_every_cycles),
-                        ("--success-threshold", args.success_threshold),
-                        ("--stop-patience", args.stop_patience), ("--stop-gap-episodes", args.stop_gap_episodes),
-                        ("--threads", args.threads)):
-        if value is not None:
-            cmd += [flag, str(value)]
-    return cmd + shlex.split(args.train_args or "")
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of `python -m acder_lite sweep`."""
-    parser.add_argument("--plan", default=None, metavar="FILE",
-                        help="a plan file (TOML, see `read_plan`), e.g. results/plan.toml, instead of "
-                             "--envs/--methods/--seeds")
-    parser.add_argument("--envs", nargs="+", default=None, metavar="ENV",
-                        help="tasks, e.g. FetchReach-v4 FetchPush-v4")
-    parser.add_argument("--methods", nargs="+", default=None, metavar="METHOD",
-                        help="rows of the method table, e.g. her acder")
-    parser.add_argument("--seeds", nargs="+", type=int, default=None, metavar="N")
-    parser.add_argument("--results", default="results", help="root of <env>/<method>/seed<k> (default: results)")
-    parser.add_argument("--jobs", type=int, default=None,
-                        help="runs at once (default: os.cpu_count())")
-    parser.add_argument("--threads", type=int, default=None,
-                        help="torch threads per run (default: max(1, cores // jobs))")
-    parser.add_argument("--epochs", type=int, default=None, help="passed to train")
-    parser.add_argument("--workers", type=int, default=None, help="passed to train")
-    parser.add_argument("--eval-every-cycles", type=int, default=None, help="passed to train")
-    parser.add_argument("--success-threshold", type=float, default=None, help="passed to train")
-    parser.add_argument("--stop-patience", type=int, default=None, help="passed to train")
-    parser.add_argument("--stop-gap-episodes", type=int, default=None, help="passed to train")
-    parser.add_argument("--train-args", default="", metavar="'ARGS'",
-                        help="more options for train, one quoted string: --train-args='--cycles 2'")
-    parser.add_argument("--dry-run", action="store_true",
-                        help="print what each cell would do (run / resume / skip) and exit")
-
-
-def check_args(args) -> str | None:
-    """The first problem with the options, as one line, or None. Fills the defaults of jobs/threads."""
-    grid = [args.envs, args.methods, args.seeds]
-    if args.plan is not None:
-        if any(x is not None for x in grid):
-            return "--plan FILE and --envs/--methods/--seeds exclude each other; allowed: one of them"
-    elif any(x is None for x in grid):
-        return "--envs, --methods and --seeds are required (or --plan FILE)"
-    else:
-        problem = _check_names(*grid)
-        if problem:
-            return problem
-    cores = os.cpu_count() or 1
-    if args.jobs is None:
-        args.jobs = cores
-    if args.jobs < 1:
-        return f"--jobs={args.jobs} is not allowed: an integer >= 1"
-    if args.threads is None:
-        args.threads = max(1, cores // args.jobs)
-    if args.threads < 1:
-        return f"--threads={args.threads} is not allowed: an integer >= 1"
-    for name in ("epochs", "workers"):
-        value = getattr(args, name)
-        if value is not None and value < 1:
-            return f"--{name.replace('_', '-')}={value} is not allowed: an integer >= 1"
-    for name in ("eval_every_cycles", "stop_patience", "stop_gap_episodes"):
-        value = getattr(args, name)
-        if value is not None and value < 0:
-            return f"--{name.replace('_', '-')}={value} is not allowed: an integer >= 0"
-    if args.success_threshold is not None and not 0 < args.success_threshold <= 1:
-        return f"--success-threshold={args.success_threshold} is not allowed: a number in (0, 1]"
-    try:
-        shlex.split(args.train_args or "")
-    except ValueError as e:
-        return f"--train-args cannot be parsed: {e}"
-    return None
-
-
 def _check_names(envs, methods, seeds) -> str | None:
+    """Unknown names and repeated seeds: what Config cannot see, since it checks one cell."""
     for env in envs:
         if env not in ENV_IDS:
             return f"unknown env {env!r}; allowed: {', '.join(ENV_IDS)}"
@@ -301,52 +192,161 @@ def _check_names(envs, methods, seeds) -> str | None:
     return None
 
 
-def _say(msg: str) -> None:
-    print(f"sweep: {msg}", flush=True)
+# ----- the options
+
+_PASSED = ("epochs", "workers", "eval_every_cycles", "success_threshold", "stop_patience", "stop_gap_episodes")
+"""Sweep options that are Config fields, passed to every cell's train."""
 
 
-def _child_env(threads: int) -> dict:
-    """The environment of a child: the package importable from any cwd, BLAS threads capped."""
-    env = dict(os.environ)
-    root = str(Path(__file__).resolve().parent.parent)
-    env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-    for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
-        env[var] = str(threads)
-    return env
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of `python -m acder_lite sweep`."""
+    parser.add_argument("--plan", default=None, metavar="FILE",
+                        help="a plan file (TOML, see `read_plan`), e.g. results/plan.toml, instead of "
+                             "--envs/--methods/--seeds")
+    parser.add_argument("--envs", nargs="+", default=None, metavar="ENV",
+                        help="tasks, e.g. FetchReach-v4 FetchPush-v4")
+    parser.add_argument("--methods", nargs="+", default=None, metavar="METHOD",
+                        help="rows of the method table, e.g. her acder")
+    parser.add_argument("--seeds", nargs="+", type=int, default=None, metavar="N")
+    parser.add_argument("--results", default="results", help="root of <env>/<method>/seed<k> (default: results)")
+    parser.add_argument("--address", default=None,
+                        help="a running Ray cluster: 'auto' or ray://HOST:PORT (default: start a local "
+                             "Ray on 127.0.0.1)")
+    parser.add_argument("--jobs", type=int, default=None,
+                        help="local Ray: runs at once (default: cores // threads); ignored on a cluster")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="CPUs each cell reserves, and its torch threads (default: 1)")
+    parser.add_argument("--epochs", type=int, default=None, help="passed to train")
+    parser.add_argument("--workers", type=int, default=None, help="passed to train")
+    parser.add_argument("--eval-every-cycles", type=int, default=None, help="passed to train")
+    parser.add_argument("--success-threshold", type=float, default=None, help="passed to train")
+    parser.add_argument("--stop-patience", type=int, default=None, help="passed to train")
+    parser.add_argument("--stop-gap-episodes", type=int, default=None, help="passed to train")
+    parser.add_argument("--train-args", default="", metavar="'ARGS'",
+                        help="more options for train, one quoted string: --train-args='--cycles 2'")
+    parser.add_argument("--dry-run", action="store_true",
+                        help="print what each cell would do (run / resume / skip) and exit")
 
 
-def _replan(cell: Cell) -> Cell:
-    """The cell planned again just before it starts (hours may have passed since the plan)."""
-    return plan_cell(cell)
+def passed_options(args) -> dict:
+    """The Config fields the sweep's own options set (`_PASSED`), those given."""
+    return {name: getattr(args, name) for name in _PASSED if getattr(args, name) is not None}
 
 
-def _start(cell: Cell, args) -> tuple[subprocess.Popen, object, float]:
+def check_args(args) -> str | None:
+    """The first problem with the options, as one line, or None. Fills the default of jobs."""
+    grid = [args.envs, args.methods, args.seeds]
+    if args.plan is not None:
+        if any(x is not None for x in grid):
+            return "--plan FILE and --envs/--methods/--seeds exclude each other; allowed: one of them"
+    elif any(x is None for x in grid):
+        return "--envs, --methods and --seeds are required (or --plan FILE)"
+    else:
+        problem = _check_names(*grid)
+        if problem:
+            return problem
+    if args.threads < 1:
+        return f"--threads={args.threads} is not allowed: an integer >= 1"
+    if args.jobs is None:
+        args.jobs = max(1, (os.cpu_count() or 1) // args.threads)
+    if args.jobs < 1:
+        return f"--jobs={args.jobs} is not allowed: an integer >= 1"
+    try:  # the passed options, checked by Config itself (one line naming the field)
+        Config(env=ENV_IDS[0], **passed_options(args)).resolve()
+    except ConfigError as e:
+        return str(e)
+    try:
+        extra = shlex.split(args.train_args or "")
+    except ValueError as e:
+        return f"--train-args cannot be parsed: {e}"
+    if any(a in ("--out", "--resume") for a in extra):
+        return "--train-args may not hold --out or --resume; the sweep sets them per cell"
+    return None
+
+
+def check_folders(cells: list[Cell]) -> str | None:
+    """A run folder that cannot be one (it, or a folder above it, is a file), as one line."""
+    for c in cells:
+        for p in [c.out, *c.out.parents]:
+            if p.exists():
+                if not p.is_dir():
+                    return f"results folder {str(p)!r} is a file; allowed: a folder (or a path not yet there)"
+                break
+    return None
+
+
+def train_argv(cell: Cell, args, resume: bool) -> list[str]:
+    """The `acder_lite train` arguments of one cell: its options, the sweep's, --train-args.
+
+    A resumed cell gets `--resume DIR` and the same options as a fresh one: train accepts a
+    changed epochs/threads/stop option and refuses (exit 2, in train.log) any other change.
+    """
+    argv = ["train", "--env", cell.env, "--method", cell.method, "--seed", str(cell.seed)]
+    argv += ["--resume", str(cell.out)] if resume else ["--out", str(cell.out)]
+    options = {**cell.options, **passed_options(args), "threads": args.threads}
+    for name, value in options.items():
+        argv += ["--" + name.replace("_", "-"), str(value)]
+    return argv + shlex.split(args.train_args or "") + ["--quiet"]
+
+
+# ----- the task (runs in a Ray worker process)
+
+def train_cell(cell: Cell, args) -> dict:
+    """Train one cell in this process: fresh, resumed or skipped, decided now from its folder.
+
+    stdout and stderr go to `DIR/train.log`, whose first line of each attempt names this pid.
+    Returns dict(status, pid, attempts, log_tail).
+    """
+    import fcntl
+    from . import cli
     cell.out.mkdir(parents=True, exist_ok=True)
-    cmd = train_command(cell, args)
-    log = open(cell.out / "train.log", "a")
-    log.write(f"# {time.strftime('%Y-%m-%d %H:%M:%S')} sweep: {shlex.join(cmd)}\n")
-    log.flush()
-    # A new session: a terminal's Ctrl-C reaches only the sweep, which forwards it exactly once.
-    proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                            env=_child_env(args.threads), start_new_session=True)
-    return proc, log, time.monotonic()
-
-
-def _release(cell: Cell, log) -> None:
-    """After a child exited: close its log."""
-    log.close()
-
-
-def _finish_status(cell: Cell, rc: int) -> str:
+    lock = open(cell.out / LOCK, "w")
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return dict(status="skipped: another sweep trains into this folder", pid=os.getpid(), attempts=0, log_tail="")
+    state = cell_state(cell.out)
+    if state == "done":
+        return dict(status="done", pid=os.getpid(), attempts=0, log_tail="")
+    if state == "orphan":
+        return dict(status="FAILED: progress.csv without checkpoint.pt; remove the folder to start over",
+                    pid=os.getpid(), attempts=0, log_tail="")
+    argv = train_argv(cell, args, resume=state == "interrupted")
+    log_path = cell.out / "train.log"
+    with open(log_path, "a") as log, _redirected(log):
+        print(f"# {time.strftime('%Y-%m-%d %H:%M:%S')} sweep: pid {os.getpid()}: "
+              f"python -m acder_lite {shlex.join(argv)}", flush=True)
+        try:
+            rc = cli.main(argv)
+        except KeyboardInterrupt:  # cancelled before train installed its own handler
+            rc = EXIT_INTERRUPTED
+        sys.stdout.flush()
+        sys.stderr.flush()
+    attempts = sum(line.startswith("# ") and " sweep: pid " in line for line in open(log_path, errors="replace"))
     if rc == 0 and (cell.out / "done.json").exists():
-        return "done"
-    if rc == 0:
-        return "exited 0 without done.json"
-    if rc in (-signal.SIGINT, EXIT_INTERRUPTED):
-        return "interrupted"
-    if rc == -signal.SIGKILL:
-        return "killed"
-    return f"FAILED rc={rc}: {_last_line(cell.out / 'train.log')} (see {cell.out / 'train.log'})"
+        status = "done"
+    elif rc == EXIT_INTERRUPTED:
+        status = "interrupted"
+    else:
+        status = f"FAILED rc={rc}"
+    return dict(status=status, pid=os.getpid(), attempts=attempts, log_tail=_last_line(log_path))
+
+
+@contextlib.contextmanager
+def _redirected(log):
+    """File descriptors 1 and 2 (so C code and tqdm too) into `log` for the block."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = os.dup(1), os.dup(2)
+    os.dup2(log.fileno(), 1)
+    os.dup2(log.fileno(), 2)
+    try:
+        yield
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        os.close(saved[0])
+        os.close(saved[1])
 
 
 def _last_line(path: Path) -> str:
@@ -361,32 +361,59 @@ def _last_line(path: Path) -> str:
     return lines[-1][:200] if lines else "empty log"
 
 
-def _signal(proc: subprocess.Popen, sig: int) -> None:
+# ----- the driver
+
+def _say(msg: str) -> None:
+    print(f"sweep: {msg}", flush=True)
+
+
+def _check_address(address: str) -> str | None:
+    """None if a Ray cluster answers at `address` ('auto' is left to Ray), else one line."""
+    if address == "auto":
+        return None
+    hostport = address.split("://", 1)[-1]
+    host, _, port = hostport.rpartition(":")
+    if not host or not port.isdigit():
+        return f"--address={address!r} is not allowed: 'auto' or ray://HOST:PORT"
     try:
-        os.killpg(proc.pid, sig)
-    except (ProcessLookupError, PermissionError):
-        pass
+        socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as e:
+        return f"--address={address!r} does not answer within {CONNECT_TIMEOUT_S:g} s ({e.strerror or e})"
+    return None
 
 
-def _raise_interrupt(signum, frame):
-    raise KeyboardInterrupt
+def _connect(args):
+    """Start a local Ray on 127.0.0.1 (`--jobs` x `--threads` CPUs), or join `--address`."""
+    import ray
+    os.environ.setdefault("RAY_DEDUP_LOGS", "0")
+    quiet = dict(include_dashboard=False, log_to_driver=False, configure_logging=True,
+                 logging_level="ERROR")
+    # The package must be importable in the workers from any cwd (a test runs the sweep elsewhere).
+    root = str(Path(__file__).resolve().parent.parent)
+    runtime_env = {"env_vars": {"PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}}
+    if args.address:
+        return ray.init(address=args.address, runtime_env=runtime_env, **quiet)
+    return ray.init(num_cpus=args.jobs * args.threads, object_store_memory=100 * 2**20,
+                    _node_ip_address="127.0.0.1", runtime_env=runtime_env, **quiet)
 
 
 def run(args) -> int:
-    """Plan the grid and run it; 0 if every run finished, 1 if one failed or was interrupted from
-    outside, 2 on bad input, 130 on Ctrl-C."""
+    """Plan the grid and run it on Ray; 0 if every cell finished, 1 if one failed, 2 on bad
+    input, 130 on Ctrl-C (every running cell keeps its last checkpoint)."""
+    def bad(msg):
+        print(f"error: sweep: {msg}", file=sys.stderr)
+        return 2
     problem = check_args(args)
     if problem:
-        print(f"error: sweep: {problem}", file=sys.stderr)
-        return 2
-    if args.plan is not None:
-        try:
-            cells = read_plan(args.plan)
-        except PlanError as e:
-            print(f"error: sweep: {e}", file=sys.stderr)
-            return 2
-    else:
-        cells = plan(args.envs, args.methods, args.seeds, args.results)
+        return bad(problem)
+    try:
+        cells = read_plan(args.plan) if args.plan is not None else plan(
+            args.envs, args.methods, args.seeds, args.results)
+    except PlanError as e:
+        return bad(e)
+    problem = check_folders(cells)
+    if problem:
+        return bad(problem)
     if args.dry_run:
         for c in cells:
             print(f"{c.action:<6} {c.name:<40} {c.out}" + (f"  ({c.note})" if c.note else ""))
@@ -394,86 +421,74 @@ def run(args) -> int:
         _say(f"dry run: {counts['run']} to run, {counts['resume']} to resume, {counts['skip']} to skip; "
              f"jobs={args.jobs} threads={args.threads}")
         return 0
-
+    if args.address:
+        problem = _check_address(args.address)
+        if problem:
+            return bad(problem)
     for c in cells:
         if c.action == "skip":
             _say(f"skip   {c.name} ({c.note})")
     todo = [c for c in cells if c.action != "skip"]
-    _say(f"{len(todo)} runs ({sum(c.action == 'resume' for c in todo)} resumed), "
-         f"jobs={args.jobs}, threads={args.threads}, results={args.results}")
-
-    main = threading.current_thread() is threading.main_thread()
-    if main:  # Ctrl-C and SIGTERM become KeyboardInterrupt, even if the parent ignored SIGINT
-        old_int = signal.signal(signal.SIGINT, signal.default_int_handler)
-        old_term = signal.signal(signal.SIGTERM, _raise_interrupt)
-    running: dict[int, tuple[Cell, subprocess.Popen, object, float]] = {}
-    failed = finished = interrupted = 0
+    if not todo:
+        _say(f"nothing to run: {len(cells)} skipped")
+        return 0
+    import ray
     try:
-        try:
-            while todo or running:
-                while todo and len(running) < args.jobs:
-                    cell = _replan(todo.pop(0))
-                    if cell.action == "skip":
-                        _say(f"skip   {cell.name} ({cell.note})")
-                        continue
-                    proc, log, t0 = _start(cell, args)
-                    running[proc.pid] = (cell, proc, log, t0)
-                    _say(f"start  {cell.name} ({cell.action}) pid={proc.pid} -> {cell.out / 'train.log'}")
-                for pid, (cell, proc, log, t0) in list(running.items()):
-                    rc = proc.poll()
-                    if rc is None:
-                        continue
-                    _release(cell, log)
-                    del running[pid]
-                    status = _finish_status(cell, rc)
-                    # a child interrupted from outside (its own Ctrl-C, a kill -INT) kept its
-                    # checkpoint: not a failure, but not finished either
-                    finished += status == "done"
-                    interrupted += status == "interrupted"
-                    failed += status not in ("done", "interrupted")
-                    _say(f"finish {cell.name}: {status} in {time.monotonic() - t0:.0f}s")
-                if running:
-                    time.sleep(POLL_S)
-        except KeyboardInterrupt:
-            stopped = len(running)
-            finished += _interrupt(running)
-            _say(f"interrupted: {finished} finished, {stopped} stopped, {len(todo)} not started; "
-                 "re-run the same command to continue")
-            return EXIT_INTERRUPTED
-        except BaseException:
-            _interrupt(running)  # never leave children behind
-            raise
+        _connect(args)
+    except (ConnectionError, RuntimeError, ValueError) as e:
+        return bad(f"--address={args.address!r}: no Ray cluster there ({str(e).splitlines()[0][:160]})")
+    try:
+        return _drive(todo, args, len(cells) - len(todo))
     finally:
-        if main:
-            signal.signal(signal.SIGINT, old_int)
-            signal.signal(signal.SIGTERM, old_term)
-    _say(f"all done: {finished} finished, {failed} failed, "
-         + (f"{interrupted} interrupted (re-run the same command to resume), " if interrupted else "")
-         + f"{sum(c.action == 'skip' for c in cells)} skipped")
-    return 1 if failed or interrupted else 0
+        ray.shutdown()
 
 
-def _interrupt(running: dict) -> int:
-    """Forward SIGINT to every child, wait for all; a second Ctrl-C kills them. Returns how many were done."""
-    _say(f"interrupt: forwarding SIGINT to {len(running)} run(s), waiting for their checkpoints "
-         "(Ctrl-C again to kill)")
-    for cell, proc, log, t0 in running.values():
-        _signal(proc, signal.SIGINT)
-    killed = False
-    done = 0
-    while True:
-        try:
-            for pid, (cell, proc, log, t0) in list(running.items()):
-                rc = proc.wait()
-                _release(cell, log)
-                del running[pid]
-                status = _finish_status(cell, rc)
-                done += status == "done"
-                _say(f"finish {cell.name}: {status} in {time.monotonic() - t0:.0f}s")
-            return done
-        except KeyboardInterrupt:
-            if not killed:
-                _say("second interrupt: killing the remaining runs (their last checkpoint stays)")
-                for cell, proc, log, t0 in running.values():
-                    _signal(proc, signal.SIGKILL)
-                killed = True
+def _drive(todo: list[Cell], args, skipped: int) -> int:
+    import ray
+    from tqdm import tqdm
+    # max_calls=1: a fresh worker process per cell (a run's replay buffer is gigabytes)
+    task = ray.remote(max_calls=1)(train_cell).options(num_cpus=args.threads, max_retries=MAX_RETRIES)
+    refs = {task.remote(c, args): c for c in todo}
+    _say(f"{len(todo)} cells ({sum(c.action == 'resume' for c in todo)} to resume), "
+         f"threads={args.threads} each" + ("" if args.address else f", local Ray of {args.jobs * args.threads} CPUs"))
+    counts = dict(done=0, failed=0, interrupted=0)
+    bar = tqdm(total=len(todo), unit="cell", dynamic_ncols=True, file=sys.stderr, disable=not sys.stderr.isatty())
+    t0 = time.monotonic()
+    try:
+        while refs:
+            ready, _ = ray.wait(list(refs), num_returns=1, timeout=1.0)
+            for ref in ready:
+                _finish(refs.pop(ref), ref, counts, bar, t0)
+    except KeyboardInterrupt:
+        _say(f"interrupt: cancelling {len(refs)} cell(s); each keeps its last checkpoint")
+        for ref in refs:
+            ray.cancel(ref)
+        for ref, cell in list(refs.items()):
+            _finish(cell, ref, counts, bar, t0)
+        bar.close()
+        _say(f"interrupted: {counts['done']} finished; re-run the same command to continue")
+        return EXIT_INTERRUPTED
+    bar.close()
+    _say(f"all done: {counts['done']} finished, {counts['failed']} failed, "
+         + (f"{counts['interrupted']} interrupted (re-run the same command to resume), " if counts["interrupted"] else "")
+         + f"{skipped} skipped")
+    return 1 if counts["failed"] or counts["interrupted"] else 0
+
+
+def _finish(cell: Cell, ref, counts: dict, bar, t0: float) -> None:
+    """Report one cell that ended (its task's result, or why there is none)."""
+    import ray
+    try:
+        r = ray.get(ref)
+    except (ray.exceptions.TaskCancelledError, KeyboardInterrupt):
+        r = dict(status="interrupted", attempts=0, log_tail="")
+    except ray.exceptions.RayError as e:
+        r = dict(status=f"FAILED: {type(e).__name__}", attempts=0, log_tail=_last_line(cell.out / "train.log"))
+    status = r["status"]
+    key = "done" if status in ("done",) or status.startswith("skipped") else (
+        "interrupted" if status == "interrupted" else "failed")
+    counts[key] += 1
+    bar.update(1)
+    more = f" (attempts {r['attempts']})" if r.get("attempts", 0) > 1 else ""
+    tail = f": {r['log_tail']} (see {cell.out / 'train.log'})" if key == "failed" else ""
+    _say(f"finish {cell.name}: {status}{tail} after {time.monotonic() - t0:.0f}s{more}")

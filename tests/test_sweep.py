@@ -3,6 +3,7 @@ import argparse
 import csv
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -46,31 +47,11 @@ def test_plan(grid):
     assert "nothing to resume" in cells[3].note
 
 
-def test_plan_leaves_a_live_run_alone(grid, monkeypatch):
-    """A train process started by hand (not by this sweep) on a folder: skipped, found via /proc."""
-    if not os.path.isdir("/proc/self"):
-        pytest.skip("no /proc")
-    monkeypatch.chdir(grid)
-    rel = os.path.join("FetchReach-v4", "her", "seed1")
-    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)",
-                              "-m", "acder_lite", "train", "--resume", rel], cwd=grid)
-    try:
-        t0 = time.monotonic()
-        while not open(f"/proc/{child.pid}/cmdline", "rb").read() and time.monotonic() - t0 < 5:
-            time.sleep(0.01)  # just after exec the kernel may show an empty command line
-        assert S.live_runs()[os.path.realpath(rel)] == child.pid
-        cells = S.plan(["FetchReach-v4"], ["her"], [1, 2], ".")
-        assert [c.action for c in cells] == ["skip", "run"]
-        assert f"pid {child.pid}" in cells[0].note
-    finally:
-        child.kill()
-        child.wait()
-
-
 def test_plan_ebp_needs_an_object(tmp_path):
+    """Config's own check decides (one place): EBP on a task without an object is skipped."""
     cells = S.plan(["FetchReach-v4", "FetchPush-v4"], ["her-ebp"], [0], tmp_path)
     assert [(c.env, c.action) for c in cells] == [("FetchReach-v4", "skip"), ("FetchPush-v4", "run")]
-    assert "object" in cells[0].note
+    assert "needs a task with an object" in cells[0].note
 
 
 def test_dry_run(grid, capsys):
@@ -86,20 +67,19 @@ def test_dry_run(grid, capsys):
     assert not (grid / "FetchReach-v4" / "her" / "seed2").exists()  # a dry run creates nothing
 
 
-def test_train_command(grid):
+def test_train_argv(grid):
     args = parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "0", "--results", str(grid),
-                  "--jobs", "1", "--epochs", "3", "--eval-every-cycles", "5", "--train-args=--cycles 2 --quiet"])
+                  "--epochs", "3", "--eval-every-cycles", "5", "--train-args=--cycles 2"])
     assert S.check_args(args) is None
-    assert args.threads == max(1, (os.cpu_count() or 1) // 1)
+    assert args.threads == 1 and args.jobs == max(1, os.cpu_count() or 1)
     fresh, resume = S.plan(["FetchReach-v4"], ["her"], [2, 1], grid)
-    assert (fresh.action, resume.action) == ("run", "resume")
-    cmd = S.train_command(fresh, args)
-    assert cmd[:4] == [sys.executable, "-m", "acder_lite", "train"]
-    assert cmd[cmd.index("--out") + 1] == str(fresh.out) and "--resume" not in cmd
-    assert cmd[cmd.index("--epochs") + 1] == "3" and cmd[cmd.index("--eval-every-cycles") + 1] == "5"
-    assert cmd[-3:] == ["--cycles", "2", "--quiet"] and "--workers" not in cmd
-    cmd = S.train_command(resume, args)
-    assert cmd[cmd.index("--resume") + 1] == str(resume.out) and "--out" not in cmd
+    argv = S.train_argv(fresh, args, resume=False)
+    assert argv[:1] == ["train"] and argv[argv.index("--out") + 1] == str(fresh.out) and "--resume" not in argv
+    assert argv[argv.index("--epochs") + 1] == "3" and argv[argv.index("--eval-every-cycles") + 1] == "5"
+    assert argv[argv.index("--threads") + 1] == "1" and "--workers" not in argv
+    assert argv[-3:] == ["--cycles", "2", "--quiet"]
+    argv = S.train_argv(resume, args, resume=True)
+    assert argv[argv.index("--resume") + 1] == str(resume.out) and "--out" not in argv
 
 
 @pytest.mark.parametrize("argv, msg", [
@@ -107,12 +87,13 @@ def test_train_command(grid):
     (["--envs", "FetchReach-v4", "--methods", "dqn"], "unknown method 'dqn'"),
     (["--envs", "FetchReach-v4", "--methods", "her", "--jobs", "0"], "--jobs=0"),
     (["--envs", "FetchReach-v4", "--methods", "her", "--threads", "0"], "--threads=0"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--epochs", "0"], "--epochs=0"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--success-threshold", "2"], "--success-threshold=2"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--stop-patience", "-1"], "--stop-patience=-1"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--stop-gap-episodes", "-1"], "--stop-gap-episodes=-1"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--eval-every-cycles", "-1"], "--eval-every-cycles=-1"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--epochs", "0"], "epochs=0 is not allowed"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--success-threshold", "2"], "success_threshold=2.0 is not allowed"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--stop-patience", "-1"], "stop_patience=-1 is not allowed"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--stop-gap-episodes", "-1"], "stop_gap_episodes=-1"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--eval-every-cycles", "-1"], "eval_every_cycles=-1"),
     (["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--cycles '2"], "--train-args"),
+    (["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--out x"], "may not hold --out"),
 ])
 def test_argument_errors(tmp_path, capsys, argv, msg):
     args = parse(argv + ["--seeds", "0", "--results", str(tmp_path), "--dry-run"])
@@ -120,6 +101,33 @@ def test_argument_errors(tmp_path, capsys, argv, msg):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and msg in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_results_folder_that_is_a_file(tmp_path, capsys):
+    (tmp_path / "results").write_text("not a folder")
+    args = parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "0", "--results",
+                  str(tmp_path / "results")])
+    assert S.run(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is a file" in err
+    assert (tmp_path / "results").read_text() == "not a folder"
+
+
+def test_address_that_does_not_answer(tmp_path, capsys):
+    """A cluster address where nothing listens: one line, exit 2, nothing written, no Ray started."""
+    with socket.socket() as s:  # a free port on loopback, then closed: nothing listens there
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    args = parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "0", "--results",
+                  str(tmp_path / "r"), "--address", f"ray://127.0.0.1:{port}"])
+    t0 = time.monotonic()
+    assert S.run(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "does not answer" in err and time.monotonic() - t0 < 10
+    assert list(tmp_path.iterdir()) == []
+    assert S.run(parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "0", "--results",
+                        str(tmp_path / "r"), "--address", "nonsense"])) == 2
+    assert "'auto' or ray://HOST:PORT" in capsys.readouterr().err
 
 
 def test_plan_and_grid_options_exclude_each_other(tmp_path, capsys):
@@ -175,7 +183,7 @@ def test_read_plan(tmp_path):
     assert cells[0].options == {"update_dtype": "float32", "sicm_input": "raw"}
     assert cells[4].options == {"update_dtype": "float32"}
     assert cells[-1].note == "on hold: waits for the readings"
-    cmd = S.train_command(cells[0], parse(["--plan", str(path)]))
+    cmd = S.train_argv(cells[0], parse(["--plan", str(path)]), resume=False)
     assert cmd[cmd.index("--sicm-input") + 1] == "raw" and cmd[cmd.index("--method") + 1] == "acder"
     assert cmd[cmd.index("--out") + 1] == str(cells[0].out)
 
@@ -216,6 +224,26 @@ def test_negative_seed(tmp_path, capsys):
     assert "seeds" in capsys.readouterr().err
 
 
+TINY = ("--workers 1 --cycles 2 --updates-per-cycle 2 --test-episodes 1 --batch-size 16 --hidden 16 "
+        "--buffer-size 5000 --stop-patience 0")
+"""A FetchReach run of a few seconds an epoch (for the real Ray sweeps below)."""
+
+
+def _sweep_cmd(results, seeds, epochs):
+    return [sys.executable, "-m", "acder_lite", "sweep", "--envs", "FetchReach-v4", "--methods", "her",
+            "--seeds", *map(str, seeds), "--results", str(results), "--jobs", "2", "--epochs", str(epochs),
+            f"--train-args={TINY}"]
+
+
+def _env():
+    return dict(os.environ, PYTHONPATH=str(ROOT))
+
+
+def _rows(run: Path) -> list[dict]:
+    with open(run / "progress.csv") as f:
+        return [{k: v for k, v in r.items() if k != "wall_s"} for r in csv.DictReader(f)]
+
+
 def _wait_for(pred, proc, timeout):
     t0 = time.monotonic()
     while not pred():
@@ -224,58 +252,74 @@ def _wait_for(pred, proc, timeout):
         time.sleep(0.05)
 
 
-def test_real_sweep_interrupt_and_restart(tmp_path):
-    """Two tiny runs, one at a time: Ctrl-C during the second, then the same command finishes it."""
-    cli = pytest.importorskip("acder_lite.cli")
-    if "train" not in cli.build_parser().format_help():
-        pytest.skip("no train command yet")
-    results = tmp_path / "results"
-    cmd = [sys.executable, "-m", "acder_lite", "sweep", "--envs", "FetchReach-v4", "--methods", "her",
-           "--seeds", "0", "1", "--results", str(results), "--jobs", "1", "--threads", "1",
-           "--epochs", "20", "--workers", "1",
-           "--train-args=--cycles 2 --updates-per-cycle 2 --test-episodes 1 --batch-size 16 --hidden 16 "
-           "--buffer-size 5000 --stop-patience 0 --quiet"]
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    run0, run1 = results / "FetchReach-v4" / "her" / "seed0", results / "FetchReach-v4" / "her" / "seed1"
-
-    proc = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+def _epochs_done(run: Path) -> int:
     try:
-        _wait_for(lambda: (run1 / "checkpoint.pt").exists(), proc, 150)
+        return len(_rows(run))
+    except (OSError, KeyError):
+        return 0
+
+
+def test_ray_grid_completes_then_skips(tmp_path):
+    """Two cells on a local Ray: both done.json; the same command again skips both, starts no Ray."""
+    results = tmp_path / "results"
+    out = subprocess.run(_sweep_cmd(results, [0, 1], 2), cwd=tmp_path, env=_env(), capture_output=True,
+                         text=True, timeout=240)
+    assert out.returncode == 0, out.stdout + out.stderr
+    for k in (0, 1):
+        run = results / "FetchReach-v4" / "her" / f"seed{k}"
+        assert (run / "done.json").exists() and len(_rows(run)) == 2
+        assert f"finish FetchReach-v4/her/seed{k}: done" in out.stdout
+        cmd = __import__("json").loads((run / "config.json").read_text())["command"]
+        assert cmd.startswith("python -m acder_lite train --env FetchReach-v4") and f"--out {run}" in cmd
+    again = subprocess.run(_sweep_cmd(results, [0, 1], 2), cwd=tmp_path, env=_env(), capture_output=True,
+                           text=True, timeout=60)
+    assert again.returncode == 0 and "nothing to run: 2 skipped" in again.stdout
+    assert again.stdout.count("(already complete)") == 2
+
+
+def test_ray_retries_a_killed_worker_from_its_checkpoint(tmp_path):
+    """Kill the worker training a cell (its pid is in train.log): Ray's retry resumes it, and the
+    run ends with the same progress.csv as an uninterrupted run (but wall_s)."""
+    results, epochs = tmp_path / "results", 6
+    run = results / "FetchReach-v4" / "her" / "seed0"
+    proc = subprocess.Popen(_sweep_cmd(results, [0], epochs), cwd=tmp_path, env=_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        _wait_for(lambda: _epochs_done(run) >= 2 and (run / "checkpoint.pt").exists(), proc, 150)
+        pid = int((run / "train.log").read_text().split(" sweep: pid ", 1)[1].split(":", 1)[0])
+        os.kill(pid, signal.SIGKILL)
+        out, _ = proc.communicate(timeout=180)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, out
+    assert "finish FetchReach-v4/her/seed0: done" in out and "(attempts 2)" in out
+    starts = [line for line in (run / "train.log").read_text().splitlines() if " sweep: pid " in line]
+    assert len(starts) == 2 and "--out" in starts[0] and "--resume" in starts[1]
+
+    ref = tmp_path / "ref"
+    argv = ["train", "--env", "FetchReach-v4", "--method", "her", "--seed", "0", "--out", str(ref),
+            "--epochs", str(epochs), "--threads", "1", "--quiet", *TINY.split()]
+    assert subprocess.run([sys.executable, "-m", "acder_lite", *argv], env=_env(), timeout=180).returncode == 0
+    assert _rows(run) == _rows(ref) and len(_rows(run)) == epochs
+
+
+def test_ray_ctrl_c_keeps_checkpoints_and_the_same_command_finishes(tmp_path):
+    results = tmp_path / "results"
+    run = results / "FetchReach-v4" / "her" / "seed0"
+    cmd = _sweep_cmd(results, [0], 30)
+    proc = subprocess.Popen(cmd, cwd=tmp_path, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    try:
+        _wait_for(lambda: (run / "checkpoint.pt").exists(), proc, 150)
         proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=30)
+        out, _ = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 130, out
-    assert "finish FetchReach-v4/her/seed0: done" in out
-    assert "finish FetchReach-v4/her/seed1: interrupted" in out
-    assert (run0 / "done.json").exists() and not (run1 / "done.json").exists()
-    before = {p.name: p.stat().st_mtime_ns for p in run0.iterdir()}
-
-    out = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=150).stdout
-    assert "skip   FetchReach-v4/her/seed0 (already complete)" in out
-    assert "start  FetchReach-v4/her/seed1 (resume)" in out
-    assert "finish FetchReach-v4/her/seed1: done" in out
-    assert {p.name: p.stat().st_mtime_ns for p in run0.iterdir()} == before  # the finished run is untouched
-    starts = [line for line in (run1 / "train.log").read_text().splitlines() if line.startswith("# ")]
-    assert len(starts) == 2 and "--out" in starts[0] and "--resume" in starts[1]
-    with open(run1 / "progress.csv") as f:
-        rows = list(csv.DictReader(f))
-    assert len(rows) == 20 and float(rows[-1]["episodes"]) == 20 * 2 * 2  # one row per epoch
-
-
-def test_a_child_interrupted_from_outside_is_not_a_failure(grid, monkeypatch, capsys):
-    """A run stopped by SIGINT from elsewhere keeps its checkpoint: the summary says interrupted."""
-    def fake_start(cell, args):
-        cell.out.mkdir(parents=True, exist_ok=True)
-        log = open(cell.out / "train.log", "a")
-        proc = subprocess.Popen(["sh", "-c", "kill -INT $$"], stdout=log, stderr=subprocess.STDOUT)
-        return proc, log, time.monotonic()
-    monkeypatch.setattr(S, "_start", fake_start)
-    monkeypatch.setattr(S, "POLL_S", 0.01)
-    args = parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "2", "--results", str(grid),
-                  "--jobs", "1"])
-    assert S.run(args) == 1
-    out = capsys.readouterr().out
-    assert "finish FetchReach-v4/her/seed2: interrupted" in out
-    assert "0 finished, 0 failed, 1 interrupted (re-run the same command to resume)" in out
+    assert (run / "checkpoint.pt").exists() and not (run / "done.json").exists()
+    out = subprocess.run(cmd, cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=240)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "to resume" in out.stdout and "finish FetchReach-v4/her/seed0: done" in out.stdout
+    assert len(_rows(run)) == 30
