@@ -13,7 +13,7 @@ from .config import Config, ConfigError, field_docs
 from .io import CheckpointError
 
 # Config fields that are not command-line options.
-_NOT_OPTIONS = {"switches"}
+_NOT_OPTIONS = {"switches", "update_dtype_why"}
 # Fields a resumed run may change (everything else is fixed by the checkpoint).
 _RESUMABLE = {"epochs", "threads", "success_threshold", "stop_patience", "stop_gap_episodes"}
 
@@ -87,6 +87,10 @@ def cmd_train(args) -> int:
         cfg = Config(**given)
         out = args.out
         trainer = Trainer(cfg, out, command=_command_line(args.argv))
+    from .precision import warning_if_slow
+    slow = warning_if_slow(trainer.cfg.update_dtype)
+    if slow:
+        print(slow, file=sys.stderr)
     _interrupt_on_signals()
     try:
         rows = trainer.train(progress=not args.quiet)
@@ -171,8 +175,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--cycles", type=int, default=6,
                    help="timed cycles after one warm-up cycle (that many of each precision with --update-dtype both)")
     b.add_argument("--threads", type=int, default=2)
-    b.add_argument("--update-dtype", default="float32", choices=["float32", "bfloat16", "both"],
-                   help="precision of the gradient step; 'both' times the two in one run, with their ratio")
+    b.add_argument("--update-dtype", default="auto", choices=["auto", "float32", "bfloat16", "both"],
+                   help="precision of the gradient step (auto: as train picks it on this CPU); 'both' "
+                        "times the two in one run, with their ratio")
     b.set_defaults(func=cmd_bench)
 
     from . import diagnose, sweep, table

@@ -60,7 +60,7 @@ LEGACY_METHODS = {"acder-baselines-clip": ("acder", "baselines")}
 """Methods of protocol v1 that are now a method plus a setting: name -> (method, target_clip)."""
 
 
-UPDATE_DTYPES = ("float32", "bfloat16")
+UPDATE_DTYPES = ("auto", "float32", "bfloat16")
 """Allowed `Config.update_dtype` values."""
 
 
@@ -179,12 +179,16 @@ class Config:
     # --- engineering
     threads: int = 2
     """torch intra-op threads (2 uses both cores of this machine)."""
-    update_dtype: str = "float32"
-    """Precision of the actor/critic gradient step: 'float32', or 'bfloat16' (CPU autocast: the
-    matmuls in bf16; weights, gradients, Adam and losses stay fp32). bfloat16 is about 3x faster
-    per update on CPUs with AVX512-BF16 (measured: `bench --update-dtype`) but is a different
-    computation: compare learning curves before mixing its runs with float32 ones. Acting,
-    evaluation and S-ICM (whose errors are the intrinsic reward) stay fp32."""
+    update_dtype: str = "auto"
+    """Precision of the actor/critic gradient step: 'auto' (bfloat16 only on a CPU with native
+    bfloat16 matmul, AVX512-BF16 or AMX; float32 elsewhere: `precision.choose_update_dtype`),
+    'float32', or 'bfloat16' (CPU autocast: the matmuls in bf16; weights, gradients, Adam and
+    losses stay fp32). bfloat16 measured 2-3x faster per update with AVX512-BF16 and 17x slower
+    without it (`bench --update-dtype both`); it is a different computation: compare learning
+    curves before mixing its runs with float32 ones. Acting, evaluation and S-ICM stay fp32.
+    `resolve` replaces 'auto' by the choice; config.json records it and why."""
+    update_dtype_why: str = ""
+    """Filled by `resolve()`: why update_dtype is what it is (recorded in config.json)."""
     success_threshold: float | None = None
     """Test success rate Table I counts episodes to and the stop rule holds. None: the task
     preset (paper: Reach 1.0, Push and Pick&Place 0.95)."""
@@ -207,6 +211,9 @@ class Config:
             if getattr(self, name) is None:
                 setattr(self, name, preset[name])
         self.switches = dict(METHODS[self.method])
+        if self.update_dtype == "auto" or not self.update_dtype_why:
+            from .precision import choose_update_dtype
+            self.update_dtype, self.update_dtype_why = choose_update_dtype(self.update_dtype)
         self.validate()
         return self
 
