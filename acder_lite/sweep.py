@@ -12,9 +12,12 @@ the result equal to an uninterrupted run's. Training runs in the task's own work
 reports its pid in the first line it writes to `train.log`. Ctrl-C cancels the running tasks:
 each stops at once and keeps its last end-of-epoch checkpoint; the same command continues.
 
-Without `--address` the sweep starts a local Ray on 127.0.0.1 (nothing to set up); with
-`--address auto` or `--address ray://HOST:PORT` it joins a running cluster, where the results
-folder must be shared storage that every node sees at the same path.
+Without `--address` the sweep starts a local Ray of its own (nothing to set up) and stops it at
+the end; with `--address auto` or `--address ray://HOST:PORT` it joins a running cluster, where
+the results folder must be shared storage that every node sees at the same path. Trap: a local
+Ray cannot be kept on the loopback interface: Ray 2.60 turns 127.0.0.1 into the node's own
+address (`services.resolve_ip_for_localhost`) and its gRPC servers listen on every interface;
+what guards them is Ray's token authentication, on by default.
 """
 from __future__ import annotations
 
@@ -211,7 +214,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--results", default="results", help="root of <env>/<method>/seed<k> (default: results)")
     parser.add_argument("--address", default=None,
                         help="a running Ray cluster: 'auto' or ray://HOST:PORT (default: start a local "
-                             "Ray on 127.0.0.1)")
+                             "Ray for this sweep)")
     parser.add_argument("--jobs", type=int, default=None,
                         help="local Ray: runs at once (default: cores // threads); ignored on a cluster")
     parser.add_argument("--threads", type=int, default=1,
@@ -383,7 +386,7 @@ def _check_address(address: str) -> str | None:
 
 
 def _connect(args):
-    """Start a local Ray on 127.0.0.1 (`--jobs` x `--threads` CPUs), or join `--address`."""
+    """Start a local Ray (`--jobs` x `--threads` CPUs), or join `--address`."""
     import ray
     os.environ.setdefault("RAY_DEDUP_LOGS", "0")
     quiet = dict(include_dashboard=False, log_to_driver=False, configure_logging=True,
@@ -394,7 +397,7 @@ def _connect(args):
     if args.address:
         return ray.init(address=args.address, runtime_env=runtime_env, **quiet)
     return ray.init(num_cpus=args.jobs * args.threads, object_store_memory=100 * 2**20,
-                    _node_ip_address="127.0.0.1", runtime_env=runtime_env, **quiet)
+                    runtime_env=runtime_env, **quiet)
 
 
 def run(args) -> int:
