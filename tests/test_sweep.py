@@ -307,7 +307,7 @@ def test_ray_retries_a_killed_worker_from_its_checkpoint(tmp_path):
 def test_ray_ctrl_c_keeps_checkpoints_and_the_same_command_finishes(tmp_path):
     results = tmp_path / "results"
     run = results / "FetchReach-v4" / "her" / "seed0"
-    cmd = _sweep_cmd(results, [0], 30)
+    cmd = _sweep_cmd(results, [0], 12)
     proc = subprocess.Popen(cmd, cwd=tmp_path, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True)
     try:
@@ -322,4 +322,4 @@ def test_ray_ctrl_c_keeps_checkpoints_and_the_same_command_finishes(tmp_path):
     out = subprocess.run(cmd, cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=240)
     assert out.returncode == 0, out.stdout + out.stderr
     assert "to resume" in out.stdout and "finish FetchReach-v4/her/seed0: done" in out.stdout
-    assert len(_rows(run)) == 30
+    assert len(_rows(run)) == 12
