@@ -1,8 +1,9 @@
 #!/bin/bash
 # Snapshot `diagnose` of a training run after every checkpoint (once an epoch), so that the
 # start-state pool and S-ICM's clip share can be followed over a run (checkpoints themselves are
-# not committed). Usage, from the repository root, while the run trains:
-#   results/scripts/watch_diagnose.sh results/FetchPush-v4/acder/seed2
+# not committed). The protocol-v1 runs' diagnose/ folders were written this way; it works on any
+# run folder. Usage, from the repository root, while the run trains:
+#   experiments/protocol-v1/scripts/watch_diagnose.sh results/FetchPush-v4/acder/seed0
 # Writes <run>/diagnose/<episodes>.json; stops when the run has written done.json.
 run=$1
 mkdir -p "$run/diagnose"
