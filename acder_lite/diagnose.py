@@ -26,7 +26,7 @@ import torch
 from . import envs as E
 from .config import Config, ConfigError
 from .curiosity import SICM
-from .io import CheckpointError, load_torch, write_json
+from .io import CheckpointError, check_policy_fits, load_torch, write_json
 
 
 def state_names(trainer) -> list[str]:
@@ -140,20 +140,39 @@ def diagnose(run_dir: str, batches: int = 10, episodes: int = 0, seed: int = 123
     `episodes` > 0, the object's motion under its policy.pt (which committed runs keep)."""
     from .trainer import Policy, Trainer
     if episodes > 0:
-        pol = load_torch(os.path.join(run_dir, "policy.pt"))["policy"]
+        path = os.path.join(run_dir, "policy.pt")
+        pol = load_torch(path)["policy"]  # runs nothing from the file; checks keys and shapes
+        if pol["env"] not in E.ENV_IDS:
+            raise CheckpointError(f"checkpoint {path!r} names env {pol['env']!r}; allowed: one of {', '.join(E.ENV_IDS)}")
+        policy = Policy.from_state_dict(pol)
+        env = E.make_env(pol["env"])
+        first = env._get_obs()
+        check_policy_fits(pol, path, first["observation"].size, first["desired_goal"].size, env.action_space.shape[0])
+        env.close()
         return dict(run=run_dir, method=pol["method"], env=pol["env"],
-                    motion=object_motion(Policy.from_state_dict(pol), pol["env"], episodes, seed))
+                    motion=object_motion(policy, pol["env"], episodes, seed))
     path = os.path.join(run_dir, "checkpoint.pt")
     ckpt = load_torch(path)
     if "buffer" not in ckpt:
         raise CheckpointError(f"checkpoint {path!r} holds a policy only; allowed: a checkpoint.pt written by train")
-    cfg = Config.from_dict(ckpt["config"])
+    try:
+        cfg = Config.from_dict(ckpt["config"])
+    except ConfigError as e:
+        raise CheckpointError(f"checkpoint {path!r} holds a config this version cannot use: {e}") from None
     if not (cfg.switches["curiosity"] == "sicm" or cfg.switches["start_states"]):
         raise ConfigError(f"method={cfg.method!r} has neither S-ICM nor a start-state pool; allowed: "
                           "acder and its ablations, or --episodes N for the object's motion")
     cfg.threads = 1
     tr = Trainer(cfg)
-    tr.load_state_dict(ckpt)
+    try:
+        tr.load_state_dict(ckpt)
+    except CheckpointError as e:
+        raise CheckpointError(f"checkpoint {path!r}: {e}") from None
+    except (KeyError, IndexError, TypeError, ValueError, RuntimeError, AttributeError) as e:
+        # a part of the file does not fit the networks and buffers its own config builds
+        msg = str(e).strip().splitlines()[0] if str(e).strip() else ""
+        raise CheckpointError(f"checkpoint {path!r} does not fit its own config ({type(e).__name__}: "
+                              f"{msg[:160]}); allowed: a checkpoint.pt written by train") from None
     out = dict(run=run_dir, method=cfg.method, env=cfg.env, episodes=tr.episodes, test_success=tr.success_rate)
     if isinstance(tr.curiosity, SICM):
         out["curiosity"] = curiosity_profile(tr, batches)

@@ -1,12 +1,19 @@
-"""Files that are never half-written: write to a temporary name in the same folder, then rename."""
+"""Files that are never half-written (write to a temporary name in the same folder, then rename),
+and torch files read without running anything from them (`load_torch`, `SAFE_GLOBALS`)."""
 from __future__ import annotations
 
 import csv
 import io
 import json
+import math
 import os
+import pickle
+import re
 import tempfile
+import warnings
+import zipfile
 
+import numpy as np
 import torch
 
 
@@ -54,15 +61,182 @@ class CheckpointError(ValueError):
     """A checkpoint that cannot be read: truncated, not ours, or for another task."""
 
 
+def _safe_globals() -> tuple:
+    """What a file of ours may name besides tensors, numbers, strings, lists, dicts: see SAFE_GLOBALS."""
+    from torch.torch_version import TorchVersion
+    rebuild = np.zeros(0).__reduce__()[0]  # numpy's array reconstructor, whatever module it lives in
+    return (
+        # numpy arrays (normaliser sums, replay buffer, start-state pool, priorities, energies):
+        # ndarray.__reduce__ -> _reconstruct(ndarray, (0,), b'b') + BUILD with the dtype and bytes
+        (rebuild, "numpy._core.multiarray._reconstruct"),    # numpy >= 2 writes this name
+        (rebuild, "numpy.core.multiarray._reconstruct"),     # numpy 1.x wrote this one: the same function
+        np.ndarray,
+        np.dtype,  # dtype('f8', False, True) + BUILD, on the dtype's class below
+        # the dtype classes our arrays have (float32 buffer rows, float64 states and statistics, bool success)
+        np.dtypes.Float32DType, np.dtypes.Float64DType, np.dtypes.BoolDType,
+        # checkpoint.pt's versions.torch is torch.__version__, a str subclass
+        TorchVersion,
+    )
+
+
+SAFE_GLOBALS = _safe_globals()
+"""The only globals `load_torch` lets a file name (torch.load(weights_only=True) already allows
+tensors, OrderedDict, and Python's int/float/str/bytes/bool/None/list/tuple/dict/set). Everything
+else -- os.system, builtins.eval, a class of the writer's -- is refused before it runs. The numpy
+bit generators' states are plain dicts of str and int (PCG64's ints exceed 2^64; pickle's LONG1
+carries them), so they need nothing here."""
+
+ALLOWED = "allowed: a checkpoint.pt or policy.pt written by train"
+CHECKPOINT_KEYS = ("config", "policy", "agent", "o_norm", "g_norm", "buffer", "progress", "rng")
+"""What a checkpoint.pt holds besides the policy (Trainer.state_dict); a policy.pt holds only `policy`."""
+
+
+def _first_line(e: BaseException) -> str:
+    """The informative line of an exception, made one line and not too long."""
+    text = str(e)
+    if "WeightsUnpickler error:" in text:  # torch's explanation first, then what was refused
+        text = text.split("WeightsUnpickler error:", 1)[1]
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    line = lines[0] if lines else type(e).__name__
+    return line if len(line) <= 200 else line[:197] + "..."
+
+
+def _refused(e: BaseException) -> str:
+    """Why torch's safe unpickler refused the file, as the end of one sentence."""
+    m = re.search(r"GLOBAL ([\w.]+)", str(e))
+    if m:  # a __reduce__ of the writer's: os.system, builtins.exec, a class, ...
+        return f"it names the global {m.group(1)} (to call or build it), which a policy or checkpoint never does"
+    return f"its pickle is not one torch reads safely ({_first_line(e)})"
+
+
 def load_torch(path: str) -> dict:
+    """Read a policy.pt or checkpoint.pt written by train, without running anything from the file.
+
+    torch.load(weights_only=True) with SAFE_GLOBALS: a pickle naming any other global (a crafted
+    __reduce__) is refused before the call happens. Then the layout is checked: a dict with our
+    `policy` (keys, types and the actor's shapes, `check_policy`) and, for a checkpoint, every part
+    of `CHECKPOINT_KEYS`. Anything else raises CheckpointError: one line naming the file.
+    """
     if not os.path.isfile(path):
         raise CheckpointError(f"checkpoint {path!r} does not exist")
+    with open(path, "rb") as f:
+        head = f.read(4)
+    if head[:1] == b"\x80":  # pickle's PROTO opcode: a bare pickle (or torch's pre-1.6 format), never ours
+        raise CheckpointError(f"checkpoint {path!r} is a bare pickle, not the zip archive torch.save writes; "
+                              f"it was not unpickled; {ALLOWED}")
+    if head != b"PK\x03\x04" or not zipfile.is_zipfile(path):
+        raise CheckpointError(f"checkpoint {path!r} is truncated or not a checkpoint (not the zip archive "
+                              f"torch.save writes); {ALLOWED}")
     try:
-        obj = torch.load(path, map_location="cpu", weights_only=False)
+        with warnings.catch_warnings(), torch.serialization.safe_globals(list(SAFE_GLOBALS)):
+            warnings.simplefilter("ignore")  # e.g. torch's note on an unusual pickle protocol: one line only
+            obj = torch.load(path, map_location="cpu", weights_only=True)
+    except pickle.UnpicklingError as e:
+        raise CheckpointError(f"checkpoint {path!r} is not an acder_lite file: {_refused(e)}; nothing from "
+                              f"it was run; {ALLOWED}") from None
     except Exception as e:  # truncated zip, random bytes, ...
         raise CheckpointError(f"checkpoint {path!r} is truncated or not a checkpoint "
-                              f"({type(e).__name__}); allowed: a checkpoint.pt or policy.pt written by train") from None
+                              f"({type(e).__name__}); {ALLOWED}") from None
     if not isinstance(obj, dict) or "policy" not in obj:
-        raise CheckpointError(f"checkpoint {path!r} is not an acder_lite checkpoint "
-                              "(allowed: a checkpoint.pt or policy.pt written by train)")
+        what = (f"a dict with keys {_keys(obj)}" if isinstance(obj, dict) else f"a {type(obj).__name__}")
+        raise CheckpointError(f"checkpoint {path!r} is not an acder_lite checkpoint: it holds {what}, "
+                              f"not a dict with 'policy' ({ALLOWED})")
+    check_policy(obj["policy"], path)
+    if any(k in obj for k in CHECKPOINT_KEYS if k != "policy"):
+        missing = [k for k in CHECKPOINT_KEYS if not isinstance(obj.get(k), dict)]
+        if missing:
+            raise CheckpointError(f"checkpoint {path!r} is an incomplete checkpoint: no dict {', '.join(missing)} "
+                                  f"({ALLOWED})")
     return obj
+
+
+def _keys(d: dict, most: int = 6) -> str:
+    ks = [repr(k) for k in list(d)[:most]]
+    return "[" + ", ".join(ks) + (", ..." if len(d) > most else "") + "]"
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_real(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+POLICY_KEYS = ("env", "method", "actor", "o_norm", "g_norm", "clip_obs", "shape", "norm")
+"""What `trainer.Policy.state_dict` writes (and `Policy.from_state_dict` reads)."""
+
+
+def check_policy(d, path: str | None = None) -> None:
+    """Raise CheckpointError (one line, naming `path`) unless `d` is a policy as `Policy.state_dict`
+    writes it: its keys, the types of its numbers, and every actor tensor of the shape its recorded
+    `shape` implies ([in_dim] + [hidden] * layers + [act_dim] Linear layers, in_dim = norm.o + norm.g),
+    normaliser statistics of the sizes in `norm`. Nothing is built; a valid policy passes unchanged."""
+    where = f"checkpoint {path!r}: its policy" if path is not None else "policy"
+
+    def bad(what: str):
+        raise CheckpointError(f"{where} {what} ({ALLOWED})")
+
+    if not isinstance(d, dict):
+        bad(f"is a {type(d).__name__}, not a dict")
+    missing = [k for k in POLICY_KEYS if k not in d]
+    if missing:
+        bad(f"has no {', '.join(missing)}")
+    for k in ("env", "method"):
+        if not isinstance(d[k], str):
+            bad(f"{k} is a {type(d[k]).__name__}, not a string")
+    s, n = d["shape"], d["norm"]
+    for name, part, ints, reals in (("shape", s, ("in_dim", "act_dim", "hidden", "layers"), ("max_u",)),
+                                    ("norm", n, ("o", "g"), ("eps", "clip"))):
+        if not isinstance(part, dict):
+            bad(f"{name} is a {type(part).__name__}, not a dict")
+        for k in ints:
+            if not _is_int(part.get(k)) or part[k] < 1:
+                bad(f"{name}.{k} is {part.get(k)!r}, not an integer >= 1")
+        for k in reals:
+            if not _is_real(part.get(k)):
+                bad(f"{name}.{k} is {part.get(k)!r}, not a finite number")
+    if not _is_real(d["clip_obs"]):
+        bad(f"clip_obs is {d['clip_obs']!r}, not a finite number")
+    if s["in_dim"] != n["o"] + n["g"]:
+        bad(f"shape.in_dim {s['in_dim']} is not norm.o + norm.g = {n['o']} + {n['g']}")
+    sizes = [s["in_dim"]] + [s["hidden"]] * s["layers"] + [s["act_dim"]]
+    want = {}
+    for i in range(len(sizes) - 1):
+        want[f"net.{2 * i}.weight"] = (sizes[i + 1], sizes[i])
+        want[f"net.{2 * i}.bias"] = (sizes[i + 1],)
+    actor = d["actor"]
+    if not isinstance(actor, dict):
+        bad(f"actor is a {type(actor).__name__}, not a dict of tensors")
+    if set(actor) != set(want):
+        extra, lack = sorted(map(str, set(actor) - set(want))), sorted(set(want) - set(actor))
+        bad("actor does not match its shape (" + "; ".join(
+            ([f"missing {', '.join(lack[:4])}"] if lack else []) + ([f"unexpected {', '.join(extra[:4])}"] if extra else []))
+            + f"; shape: layers={s['layers']})")
+    for k, shp in want.items():
+        t = actor[k]
+        if not isinstance(t, torch.Tensor) or not t.is_floating_point():
+            bad(f"actor {k} is a {type(t).__name__}, not a float tensor")
+        if tuple(t.shape) != shp:
+            bad(f"actor {k} has shape {tuple(t.shape)}, its shape record implies {shp}")
+    for k, size in (("o_norm", n["o"]), ("g_norm", n["g"])):
+        st = d[k]
+        if not isinstance(st, dict):
+            bad(f"{k} is a {type(st).__name__}, not a dict")
+        for a in ("sum", "sumsq"):
+            v = st.get(a)
+            if not isinstance(v, np.ndarray) or v.dtype.kind not in "fiu":
+                bad(f"{k}.{a} is a {type(v).__name__}, not a numeric array")
+            if v.shape != (size,):
+                bad(f"{k}.{a} has shape {v.shape}, norm records {(size,)}")
+        if not _is_int(st.get("count")) or st["count"] < 0:
+            bad(f"{k}.count is {st.get('count')!r}, not an integer >= 0")
+
+
+def check_policy_fits(d: dict, path: str, obs: int, goal: int, act: int) -> None:
+    """Raise CheckpointError unless the (checked) policy `d` takes observations of size `obs`, goals
+    of size `goal` and gives actions of size `act` -- the sizes of the env it is asked to run in."""
+    n, s = d["norm"], d["shape"]
+    if (n["o"], n["g"], s["act_dim"]) != (obs, goal, act):
+        raise CheckpointError(f"checkpoint {path!r}: its policy takes observation/goal/action sizes "
+                              f"{n['o']}/{n['g']}/{s['act_dim']}, {d['env']} has {obs}/{goal}/{act} ({ALLOWED})")

@@ -90,6 +90,10 @@ class Policy:
 
     @classmethod
     def from_state_dict(cls, d: dict) -> "Policy":
+        """Rebuild the policy `state_dict` wrote; CheckpointError (one line) if `d` is not one, checked
+        (keys, numbers, the actor's shapes) before anything is built (`io.check_policy`)."""
+        from .io import check_policy
+        check_policy(d)
         s, n = d["shape"], d["norm"]
         actor = Actor(s["in_dim"], s["act_dim"], s["hidden"], s["layers"], s["max_u"])
         actor.load_state_dict(d["actor"])

@@ -257,14 +257,65 @@ def scene_from_recording(rec: Recording, vis=None, cell: float | None = 0.012, m
     return vis
 
 
+_MESHCAT_SERVER = """
+import sys
+import tornado.web
+_listen = tornado.web.Application.listen
+def listen(self, port, address=None, **kwargs):  # meshcat passes no address: tornado would take all
+    return _listen(self, port, address or "127.0.0.1", **kwargs)
+tornado.web.Application.listen = listen
+from meshcat.servers import zmqserver
+sys.argv = ["meshcat-server"]
+zmqserver.main()
+"""
+"""Meshcat's own server (`python -m meshcat.servers.zmqserver`), with its web server bound to
+127.0.0.1: meshcat 0.3 binds ZeroMQ to 127.0.0.1 but calls tornado's `Application.listen(port)`
+without an address, which listens on every interface (0.0.0.0 and ::)."""
+
+
+def _start_local_meshcat_server():
+    """Start `_MESHCAT_SERVER` as meshcat's `start_zmq_server_as_subprocess` does; (proc, zmq_url)."""
+    import atexit
+    import subprocess
+    import sys
+
+    from meshcat.servers.zmqserver import match_zmq_url
+    proc = subprocess.Popen([sys.executable, "-u", "-P", "-c", _MESHCAT_SERVER], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, start_new_session=True)
+    line = ""
+    while "zmq_url" not in line:
+        line = proc.stdout.readline().strip().decode("utf-8")
+        if proc.poll() is not None:
+            err = proc.stderr.read().decode("utf-8", "replace").strip().splitlines()
+            raise RuntimeError("the meshcat server exited at start (code %s): %s" % (proc.returncode, err[-1:] or ""))
+    proc.stdout.readline()  # web_url=..., which the visualizer asks the server for again
+
+    def cleanup(p=proc):
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+    atexit.register(cleanup)
+    return proc, match_zmq_url(line)
+
+
 def new_visualizer():
-    """`meshcat.Visualizer()` (a local server on 127.0.0.1) without its "open the URL" print."""
+    """`meshcat.Visualizer()` on a local server that listens on 127.0.0.1 only (ZeroMQ and the web
+    page), without its "open the URL" print. `close_visualizer` stops the server."""
     import contextlib
     import io
 
     import meshcat
-    with contextlib.redirect_stdout(io.StringIO()):
-        return meshcat.Visualizer()
+    from meshcat.visualizer import ViewerWindow
+    proc, zmq_url = _start_local_meshcat_server()
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            window = ViewerWindow(zmq_url=zmq_url, start_server=False, server_args=[])
+    except BaseException:
+        proc.kill()
+        proc.wait()
+        raise
+    window.server_proc = proc
+    return meshcat.Visualizer(window=window)
 
 
 def add_markers(vis, points, colors=None, radius: float = 0.012, name: str = "markers") -> None:
