@@ -67,6 +67,9 @@ def cmd_train(args) -> int:
     if args.resume:
         ckpt_path = os.path.join(args.resume, "checkpoint.pt")
         ckpt = load_torch(ckpt_path)
+        if "buffer" not in ckpt:  # load_torch checked that a checkpoint has all its parts
+            raise CheckpointError(f"checkpoint {ckpt_path!r} holds a policy only, not the training state "
+                                  "--resume needs; allowed: the checkpoint.pt that train writes")
         cfg = Config.from_dict({k: v for k, v in ckpt["config"].items()})
         for k, v in given.items():
             if k in _RESUMABLE:
@@ -76,7 +79,14 @@ def cmd_train(args) -> int:
                                   f"a resumed run may change only: {', '.join(sorted(_RESUMABLE))}")
         out = args.resume
         trainer = Trainer(cfg, out, command=_command_line(args.argv))
-        trainer.load_state_dict(ckpt)
+        try:
+            trainer.load_state_dict(ckpt)
+        except (KeyError, RuntimeError, ValueError, TypeError) as e:  # e.g. networks of other sizes
+            if isinstance(e, CheckpointError):
+                raise
+            first = (str(e).strip().splitlines() or [type(e).__name__])[0][:160]
+            raise CheckpointError(f"checkpoint {ckpt_path!r} does not fit the run it names "
+                                  f"({type(e).__name__}: {first}); allowed: a checkpoint.pt written by train") from None
         trainer.done = trainer.done and trainer.cycle >= cfg.epochs * cfg.cycles
     else:
         if not args.out:

@@ -410,3 +410,17 @@ def test_meshcat_listens_on_localhost_only():
         assert vis.window.web_url.startswith("http://127.0.0.1:")
     finally:
         viz.close_visualizer(vis)
+
+
+@pytest.mark.parametrize("kind", ["torch-system", "policy-only"])
+def test_resume_refuses_a_file_that_is_not_a_training_state(tmp_path, cli, kind):
+    """train --resume DIR on a crafted checkpoint.pt, or on a policy.pt renamed: one line, exit 2."""
+    marker = tmp_path / "marker"
+    run = tmp_path / "run"
+    run.mkdir()
+    if kind == "policy-only":
+        (run / "checkpoint.pt").write_bytes(open(REACH, "rb").read())
+    else:
+        os.replace(_crafted(tmp_path, kind, marker), run / "checkpoint.pt")
+    one_line(cli("train", "--resume", str(run)), "checkpoint.pt")
+    assert not marker.exists() and sorted(p.name for p in run.iterdir()) == ["checkpoint.pt"]
