@@ -39,7 +39,8 @@ def update_flops(trainer) -> float:
 
 def run_bench(args) -> int:
     from .config import Config
-    from .trainer import Trainer, run_episodes
+    from .rollout import run_episodes
+    from .trainer import Trainer
     both = args.update_dtype == "both"
     cfg = Config(env=args.env, method=args.method, workers=args.workers, threads=args.threads, seed=0,
                  update_dtype="float32" if both else args.update_dtype)

@@ -15,7 +15,7 @@ from .io import CheckpointError
 # Config fields that are not command-line options.
 _NOT_OPTIONS = {"switches", "update_dtype_why"}
 # Fields a resumed run may change (everything else is fixed by the checkpoint).
-_RESUMABLE = {"epochs", "threads", "success_threshold", "stop_patience", "stop_gap_episodes"}
+_RESUMABLE = {"epochs", "threads", "step_threads", "success_threshold", "stop_patience", "stop_gap_episodes"}
 
 
 class UsageError(Exception):
@@ -131,7 +131,7 @@ def cmd_eval(args) -> int:
 
     from . import envs as E
     from .io import check_policy_fits, load_torch
-    from .trainer import Policy, run_episodes
+    from .rollout import Policy, run_episodes
     if args.episodes < 1:
         raise UsageError(f"eval: --episodes {args.episodes} is not allowed: an integer >= 1")
     ckpt = load_torch(args.checkpoint)  # runs nothing from the file; checks the policy's keys and shapes

@@ -9,10 +9,11 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field, fields
 
-ENV_IDS = ("FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4", "FetchSlide-v4")
-"""The goal-based Fetch tasks this package trains on (gymnasium-robotics 1.4.2, `-v4` ids)."""
+ENV_IDS = ("FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4", "FetchSlide-v4", "FetchPushMultiStep-v0")
+"""The goal-based Fetch tasks this package trains on (gymnasium-robotics 1.4.2, `-v4` ids), and the
+paper's multi-step task in our reading, two blocks with a target each (`acder_lite.multistep`)."""
 
-OBJECT_ENVS = ("FetchPush-v4", "FetchPickAndPlace-v4", "FetchSlide-v4")
+OBJECT_ENVS = ("FetchPush-v4", "FetchPickAndPlace-v4", "FetchSlide-v4", "FetchPushMultiStep-v0")
 """Tasks with an object (EBP's energy is defined on the object, so it needs one)."""
 
 # method -> switches. her: HER relabelling; curiosity: none | sicm | icm (the module trained on each
@@ -43,6 +44,8 @@ TASK_PRESETS: dict[str, dict] = {
     "FetchPush-v4": dict(eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95),
     "FetchPickAndPlace-v4": dict(eta=0.8, alpha0=0.8, epochs=100, cycles=50, success_threshold=0.95),
     "FetchSlide-v4": dict(eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95),
+    # the multi-step task (section V-B: alpha0 = 0.7, 400 epochs; Table I's 95% rule)
+    "FetchPushMultiStep-v0": dict(eta=0.8, alpha0=0.7, epochs=400, cycles=50, success_threshold=0.95),
 }
 
 PRESET_FIELDS = ("eta", "alpha0", "epochs", "cycles", "success_threshold")
@@ -179,6 +182,10 @@ class Config:
     # --- engineering
     threads: int = 2
     """torch intra-op threads (2 uses both cores of this machine)."""
+    step_threads: int = 0
+    """Threads stepping the W envs at once in collection and evaluation (MuJoCo releases the GIL).
+    0: `threads` when it is above 1, else one (sequential). The rollout is the same bit for bit
+    either way (`rollout.run_episodes`); only the time differs."""
     update_dtype: str = "auto"
     """Precision of the actor/critic gradient step: 'auto' (bfloat16 only on a CPU with native
     bfloat16 matmul, AVX512-BF16 or AMX; float32 elsewhere: `precision.choose_update_dtype`),
@@ -240,7 +247,7 @@ class Config:
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 bad(name, "an integer >= 1")
         for name in ("updates_per_cycle", "test_episodes", "eval_every_cycles", "replay_k",
-                     "stop_patience", "stop_gap_episodes"):
+                     "stop_patience", "stop_gap_episodes", "step_threads"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
                 bad(name, "an integer >= 0")
         if self.buffer_size < 1000:

@@ -110,7 +110,7 @@ def object_motion(policy, env_id: str, episodes: int = 40, seed: int = 12345, wo
     over the distance from its first to its last position (1 = a straight push; large = pushed
     around). `episodes` is rounded up to a multiple of `workers` (envs stepped together).
     """
-    from .trainer import run_episodes
+    from .rollout import run_episodes
     envs = [E.make_env(env_id, seed=seed + i) for i in range(workers)]
     if not envs[0].has_object:
         raise ConfigError(f"env={env_id!r} has no object to follow; allowed: FetchPush-v4, FetchPickAndPlace-v4")
@@ -138,7 +138,8 @@ def object_motion(policy, env_id: str, episodes: int = 40, seed: int = 12345, wo
 def diagnose(run_dir: str, batches: int = 10, episodes: int = 0, seed: int = 12345) -> dict:
     """Curiosity and pool profiles of the run in `run_dir`, from its checkpoint.pt; or, with
     `episodes` > 0, the object's motion under its policy.pt (which committed runs keep)."""
-    from .trainer import Policy, Trainer
+    from .rollout import Policy
+    from .trainer import Trainer
     if episodes > 0:
         path = os.path.join(run_dir, "policy.pt")
         pol = load_torch(path)["policy"]  # runs nothing from the file; checks keys and shapes

@@ -164,7 +164,7 @@ def _is_real(v) -> bool:
 
 
 POLICY_KEYS = ("env", "method", "actor", "o_norm", "g_norm", "clip_obs", "shape", "norm")
-"""What `trainer.Policy.state_dict` writes (and `Policy.from_state_dict` reads)."""
+"""What `rollout.Policy.state_dict` writes (and `Policy.from_state_dict` reads)."""
 
 
 def check_policy(d, path: str | None = None) -> None:

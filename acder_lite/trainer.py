@@ -8,9 +8,9 @@ FetchReach), 20 deterministic test episodes per worker after each epoch. A metho
 from __future__ import annotations
 
 import os
-import platform
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import torch
@@ -18,128 +18,20 @@ import torch
 from . import envs as E
 from .buffer import EpisodeBuffer
 from .config import Config
-from .core import Actor
 from .curiosity import ICM, SICM
 from .ddpg import DDPG
 from .her import sample_her_transitions
-from .io import save_torch, write_csv, write_json
 from .normalizer import Normalizer
 from .rewards import intrinsic_reward, shaped_reward
+from .rollout import Policy, run_episodes
+from .runfiles import RunFiles, versions
 from .start_states import StartStateSelector
+
+__all__ = ["Trainer", "Policy", "run_episodes", "target_clip", "versions", "BASE_COLUMNS"]
 
 BASE_COLUMNS = ["epoch", "cycle", "episodes", "env_steps", "test_success", "train_success",
                 "critic_loss", "actor_loss", "q_mean", "wall_s"]
 """Columns every method writes to progress.csv; methods add their diagnostics after these."""
-
-
-def versions() -> dict:
-    import gymnasium
-    import mujoco
-    return dict(python=platform.python_version(), numpy=np.__version__, torch=torch.__version__,
-                mujoco=mujoco.__version__, gymnasium=gymnasium.__version__,
-                gymnasium_robotics=_version("gymnasium-robotics"), acder_lite=_version("acder-lite"),
-                git=_git_commit())
-
-
-def _git_commit() -> str:
-    """The source's commit (with '+dirty' for uncommitted changes), or '' outside a checkout."""
-    import subprocess
-    here = os.path.dirname(os.path.abspath(__file__))
-    try:
-        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True,
-                              timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "."], cwd=here,
-                               capture_output=True, text=True, timeout=10).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return ""
-    return head + ("+dirty" if dirty and head else "")
-
-
-def _version(dist: str) -> str:
-    from importlib import metadata
-    try:
-        return metadata.version(dist)
-    except metadata.PackageNotFoundError:
-        return "source"
-
-
-class Policy:
-    """A trained actor with its normalisers: what `eval` and the book need to act."""
-
-    def __init__(self, actor: Actor, o_norm: Normalizer, g_norm: Normalizer, clip_obs: float):
-        self.actor, self.o_norm, self.g_norm, self.clip_obs = actor, o_norm, g_norm, clip_obs
-
-    def inputs(self, o: np.ndarray, g: np.ndarray) -> torch.Tensor:
-        """Network input: [normalise(clip(o)), normalise(clip(g))], float32 (on the hot path)."""
-        c = self.clip_obs
-        o_t = torch.as_tensor(o, dtype=torch.float32).clamp(-c, c)
-        g_t = torch.as_tensor(g, dtype=torch.float32).clamp(-c, c)
-        return torch.cat([self.o_norm.normalize(o_t), self.g_norm.normalize(g_t)], dim=-1)
-
-    @torch.no_grad()
-    def __call__(self, o: np.ndarray, g: np.ndarray) -> np.ndarray:
-        return self.actor(self.inputs(o, g)).numpy()
-
-    def state_dict(self, env: str, method: str) -> dict:
-        a = self.actor
-        return dict(env=env, method=method, actor=a.state_dict(), o_norm=self.o_norm.state_dict(),
-                    g_norm=self.g_norm.state_dict(), clip_obs=self.clip_obs,
-                    shape=dict(in_dim=a.net[0].in_features, act_dim=a.net[-2].out_features,
-                               hidden=a.net[0].out_features, layers=(len(a.net) - 2) // 2, max_u=a.max_u),
-                    norm=dict(o=self.o_norm.size, g=self.g_norm.size, eps=self.o_norm.eps, clip=self.o_norm.clip))
-
-    @classmethod
-    def from_state_dict(cls, d: dict) -> "Policy":
-        """Rebuild the policy `state_dict` wrote; CheckpointError (one line) if `d` is not one, checked
-        (keys, numbers, the actor's shapes) before anything is built (`io.check_policy`)."""
-        from .io import check_policy
-        check_policy(d)
-        s, n = d["shape"], d["norm"]
-        actor = Actor(s["in_dim"], s["act_dim"], s["hidden"], s["layers"], s["max_u"])
-        actor.load_state_dict(d["actor"])
-        o_norm, g_norm = Normalizer(n["o"], n["eps"], n["clip"]), Normalizer(n["g"], n["eps"], n["clip"])
-        o_norm.load_state_dict(d["o_norm"])
-        g_norm.load_state_dict(d["g_norm"])
-        return cls(actor, o_norm, g_norm, d["clip_obs"])
-
-
-def run_episodes(envs: list, act, T: int, starts=None) -> dict:
-    """Roll out one episode in each env, stepping them together with one batched `act(o, g)` call.
-
-    `starts(i)` may return a stored start (dict with state, goal or None) for env i. Returns arrays
-    with a leading env axis: o, ag, state (T+1 steps), g, u (T steps), success (last step), novel.
-    """
-    W = len(envs)
-    first = envs[0]._get_obs()
-    od, gd, sd = first["observation"].size, first["desired_goal"].size, E.state_size(envs[0])
-    ad = envs[0].action_space.shape[0]
-    o = np.empty((W, T + 1, od), np.float32)
-    ag = np.empty((W, T + 1, gd), np.float32)
-    state = np.empty((W, T + 1, sd), np.float64)
-    g = np.empty((W, T, gd), np.float32)
-    u = np.empty((W, T, ad), np.float32)
-    success = np.zeros(W, bool)
-    novel = np.zeros(W, bool)
-    goal = np.empty((W, gd), np.float64)
-    for i, env in enumerate(envs):
-        start = starts(i) if starts is not None else None
-        if start is None:
-            obs, _ = env.reset()
-        else:
-            obs = E.restart_from(env, start["state"], start.get("goal"))
-            novel[i] = True
-        o[i, 0], ag[i, 0], goal[i] = obs["observation"], obs["achieved_goal"], obs["desired_goal"]
-        E.get_state(env, state[i, 0])
-    for t in range(T):
-        a = act(o[:, t], goal)
-        u[:, t], g[:, t] = a, goal
-        for i, env in enumerate(envs):
-            obs, ok = E.step(env, a[i])
-            o[i, t + 1], ag[i, t + 1] = obs["observation"], obs["achieved_goal"]
-            E.get_state(env, state[i, t + 1])
-            if t == T - 1:
-                success[i] = ok
-    return dict(o=o, ag=ag, state=state, g=g, u=u, success=success, novel=novel)
 
 
 def target_clip(clip: str, switches: dict, eta: float, gamma: float) -> tuple[float, float]:
@@ -162,12 +54,15 @@ class Trainer:
     def __init__(self, cfg: Config, out_dir: str | None = None, command: list[str] | None = None):
         self.cfg = cfg.resolve()
         self.out_dir, self.command = out_dir, command or sys.argv
+        self.files = RunFiles(out_dir) if out_dir else None
         sw = cfg.switches
         torch.set_num_threads(cfg.threads)
         torch.manual_seed(cfg.seed)
         self.rng = np.random.default_rng(cfg.seed)
         self.envs = [E.make_env(cfg.env, seed=cfg.seed * 1000 + i) for i in range(cfg.workers)]
         self.test_envs = [E.make_env(cfg.env, seed=cfg.seed * 1000 + 500 + i) for i in range(cfg.workers)]
+        n_step = min(cfg.workers, cfg.step_threads or cfg.threads)
+        self.pool = ThreadPoolExecutor(n_step, thread_name_prefix="step") if n_step > 1 else None
         env0 = self.envs[0]
         obs = env0._get_obs()
         self.T = E.horizon(cfg.env)
@@ -249,7 +144,8 @@ class Trainer:
 
     # ----- one cycle
     def collect(self) -> dict:
-        ep = run_episodes(self.envs, self.explore_act, self.T, starts=self._start if self.selector else None)
+        ep = run_episodes(self.envs, self.explore_act, self.T, starts=self._start if self.selector else None,
+                          pool=self.pool)
         slots = self.buffer.store(ep)
         if self.per is not None:
             self.per.add_episodes(slots)
@@ -360,7 +256,7 @@ class Trainer:
         """Mean is_success at the last step of test_episodes deterministic episodes per worker."""
         succ, q = [], []
         for _ in range(self.cfg.test_episodes):
-            ep = run_episodes(self.test_envs, self.policy, self.T)
+            ep = run_episodes(self.test_envs, self.policy, self.T, pool=self.pool)
             succ.append(ep["success"])
             x = self.policy.inputs(ep["o"][:, 0], ep["g"][:, 0])
             q.append(self.agent.critic(x, self.agent.actor(x)).numpy())
@@ -388,8 +284,8 @@ class Trainer:
         row = {k: row[k] for k in self.columns}  # only this method's diagnostics
         self.rows.append(row)
         self._reset_diag()
-        if self.out_dir:
-            write_csv(os.path.join(self.out_dir, "progress.csv"), self.rows, self.columns)
+        if self.files:
+            self.files.write_progress(self.rows, self.columns)
         return row
 
     def should_stop(self) -> bool:
@@ -422,7 +318,7 @@ class Trainer:
         if self.out_dir:
             self.write_config()
             if self.rows:  # a resumed run: drop rows logged after its checkpoint
-                write_csv(os.path.join(self.out_dir, "progress.csv"), self.rows, self.columns)
+                self.files.write_progress(self.rows, self.columns)
         stop_at = total if max_cycles is None else min(total, max_cycles)
         bar = tqdm(total=total, initial=self.cycle, disable=not progress, unit="cycle",
                    dynamic_ncols=True, file=sys.stderr)
@@ -442,15 +338,14 @@ class Trainer:
                 if end_of_epoch or self.done:
                     self.wall += time.perf_counter() - t0
                     t0 = time.perf_counter()
-                    if self.out_dir:
-                        self.save(os.path.join(self.out_dir, "checkpoint.pt"))
+                    if self.files:
+                        self.files.save(self.state_dict(), self.policy_state())
             if not self.done and self.cycle >= total:
                 self.done, self.stop_reason = True, "budget"
         finally:
             bar.close()
-        if self.out_dir and self.done:
-            write_json(os.path.join(self.out_dir, "done.json"),
-                       dict(epochs=self.cycle / c.cycles, episodes=self.episodes,
+        if self.files and self.done:
+            self.files.write_done(dict(epochs=self.cycle / c.cycles, episodes=self.episodes,
                             stopped_early=self.cycle < total, stop_reason=self.stop_reason,
                             stop_rule=dict(success_threshold=c.success_threshold, patience=c.stop_patience,
                                            budget_epochs=c.epochs, gap_episodes=c.stop_gap_episodes),
@@ -459,21 +354,8 @@ class Trainer:
 
     # ----- files
     def write_config(self) -> None:
-        """config.json: the config, the command, versions. A resumed run keeps the first command
-        and appends its own under "resumes"."""
-        path = os.path.join(self.out_dir, "config.json")
-        here = dict(command=" ".join(self.command), at_cycle=self.cycle, versions=versions(),
-                    threads=torch.get_num_threads())
-        if self.cycle and os.path.exists(path):
-            import json
-            with open(path) as f:
-                d = json.load(f)
-            d["config"] = self.cfg.to_dict()
-            d.setdefault("resumes", []).append(here)
-        else:
-            d = dict(config=self.cfg.to_dict(), command=here["command"], seed=self.cfg.seed,
-                     versions=here["versions"], threads=here["threads"])
-        write_json(path, d)
+        """config.json (`RunFiles.write_config`): a resumed run appends its command under "resumes"."""
+        self.files.write_config(self.cfg.to_dict(), self.cfg.seed, " ".join(self.command), self.cycle)
 
     def policy_state(self) -> dict:
         return self.policy.state_dict(self.cfg.env, self.cfg.method)
@@ -499,8 +381,8 @@ class Trainer:
         )
 
     def save(self, path: str) -> None:
-        save_torch(path, self.state_dict())
-        save_torch(os.path.join(os.path.dirname(path), "policy.pt"), dict(policy=self.policy_state()))
+        """checkpoint.pt at `path`, policy.pt beside it (as at every epoch end of a run)."""
+        RunFiles(os.path.dirname(path) or ".").save(self.state_dict(), self.policy_state())
 
     def load_state_dict(self, d: dict) -> None:
         self.agent.load_state_dict(d["agent"])

@@ -67,10 +67,10 @@ def record_rollout(env, policy=None, steps: int | None = None, seed: int | None 
                    every: int = 2) -> Recording:
     """Roll out one episode (the trainer's own `run_episodes`) and record every `every`-th step.
 
-    `policy(o, g) -> u` acts on batches (a `trainer.Policy` does); None acts uniformly at random.
+    `policy(o, g) -> u` acts on batches (a `rollout.Policy` does); None acts uniformly at random.
     `recording.episode` keeps the rollout's arrays (o, ag, g, u, state, success) for one env.
     """
-    from .trainer import run_episodes
+    from .rollout import run_episodes
     T = steps or E.horizon(env.spec.id if env.spec else "FetchReach-v4")
     if seed is not None:
         env.reset(seed=seed)
