@@ -7,6 +7,14 @@ the machine's fp32 matmul GFLOP/s at the update's layer shape, on the same threa
 `--update-dtype both` also times the update step and whole training cycles in float32 and bfloat16
 (interleaved, so both see the same machine) and prints the two ratios: the update's alone, and the
 end-to-end one per training episode that decides how long a run takes.
+
+The last line also gives the limit the hardware sets and how close training comes to it:
+`limit_ms_per_episode` = simulation per episode (the W envs stepped in parallel on the given
+threads, as training steps them) + the update FLOPs of one episode (updates_per_cycle /
+(W x episodes_per_cycle) updates) at the measured matmul rate; `share_of_limit` = limit / train
+(1 is the limit itself; 0.8 is training at 1.25x it). `grid_cpu_ms_per_episode` is what one
+training episode costs a sweep in CPU time (all threads' time, process_time), the protocol's
+end-of-epoch evaluation included: the figure that decides a grid's core-hours.
 """
 from __future__ import annotations
 
@@ -51,26 +59,34 @@ def run_bench(args) -> int:
     def rand_act(o, g):
         return rng.uniform(-1, 1, (o.shape[0], tr.dims["u"])).astype(np.float32)
 
-    # simulation alone (random actions, same stepping code as training)
-    run_episodes(tr.envs, rand_act, T)
+    # simulation alone (random actions, the same stepping code and threads as training)
+    run_episodes(tr.envs, rand_act, T, pool=tr.pool)
     t0 = time.perf_counter()
     n_sim = 0
     while time.perf_counter() - t0 < 2.0:
-        run_episodes(tr.envs, rand_act, T)
+        run_episodes(tr.envs, rand_act, T, pool=tr.pool)
         n_sim += W
     sim_ms = (time.perf_counter() - t0) / n_sim * 1e3
 
     dtypes = ("float32", "bfloat16") if both else (cfg.update_dtype,)
     tr.train_cycle()  # warm-up: fills the buffer, allocators, thread pools
     cycle_s = {dt: 0.0 for dt in dtypes}
+    cycle_cpu = {dt: 0.0 for dt in dtypes}
     for _ in range(args.cycles):
         for dt in dtypes:  # whole cycles, alternating the precision, so both see the same machine
             cfg.update_dtype = dt
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             tr.train_cycle()
             cycle_s[dt] += time.perf_counter() - t0
-    train = {dt: s / (args.cycles * W * cfg.episodes_per_cycle) * 1e3 for dt, s in cycle_s.items()}
+            cycle_cpu[dt] += time.process_time() - c0
+    per_cycle = W * cfg.episodes_per_cycle
+    train = {dt: s / (args.cycles * per_cycle) * 1e3 for dt, s in cycle_s.items()}
     train_ms = train[dtypes[0]]
+    cfg.update_dtype = dtypes[0]
+    c0 = time.process_time()
+    tr.evaluate()  # one end-of-epoch evaluation, shared by the epoch's training episodes
+    eval_cpu_ms = (time.process_time() - c0) * 1e3 / (cfg.cycles * per_cycle)
+    grid_cpu_ms = cycle_cpu[dtypes[0]] / (args.cycles * per_cycle) * 1e3 + eval_cpu_ms
 
     flops = update_flops(tr)
     blocks = {dt: [] for dt in dtypes}  # median of 5 blocks of 20 updates: this machine is noisy
@@ -90,6 +106,8 @@ def run_bench(args) -> int:
     upd_s = upd[dtypes[0]]
     upd_gflops = flops / upd_s / 1e9
     mm = matmul_gflops(args.threads)
+    updates_per_episode = cfg.updates_per_cycle / per_cycle
+    limit_ms = sim_ms + updates_per_episode * flops / (mm * 1e9) * 1e3
     print(f"env={cfg.env} method={cfg.method} workers={W} threads={args.threads} "
           f"minibatch={cfg.batch_size * W} update_dtype={dtypes[0]} update_ms={upd_s * 1e3:.1f} "
           f"update_gflop={flops / 1e9:.2f} update_share_of_matmul={upd_gflops / mm:.2f}")
@@ -99,5 +117,7 @@ def run_bench(args) -> int:
         print(f"train_ms_per_episode float32={train['float32']:.1f} bfloat16={train['bfloat16']:.1f} "
               f"speedup={train['float32'] / train['bfloat16']:.2f} (the bench line below is float32's)")
     print(f"bench: sim_ms_per_episode={sim_ms:.1f} train_ms_per_episode={train_ms:.1f} "
-          f"ratio={train_ms / sim_ms:.2f} update_gflops={upd_gflops:.1f} matmul_gflops={mm:.1f}")
+          f"ratio={train_ms / sim_ms:.2f} update_gflops={upd_gflops:.1f} matmul_gflops={mm:.1f} "
+          f"limit_ms_per_episode={limit_ms:.1f} share_of_limit={limit_ms / train_ms:.2f} "
+          f"grid_cpu_ms_per_episode={grid_cpu_ms:.1f}")
     return 0

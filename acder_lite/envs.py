@@ -59,7 +59,8 @@ def make_env(env_id: str, seed: int | None = None):
 
 
 def horizon(env_id: str) -> int:
-    """Steps per episode (the registered time limit: 50 for every Fetch task)."""
+    """Steps per episode (the registered time limit: 50 for gymnasium-robotics' Fetch tasks, 100 for
+    FetchPushMultiStep-v0, registered by importing acder_lite)."""
     gym = _import_robotics()
     return int(gym.spec(env_id).max_episode_steps)
 
@@ -69,21 +70,30 @@ def obs_names(env) -> list[str]:
 
     Reach has no object: its 10 entries are the gripper's position, finger state and velocities.
     Push and Pick&Place add the object's position, its position relative to the gripper, its
-    rotation (Euler angles) and its linear and angular velocities (25 entries).
+    rotation (Euler angles) and its linear and angular velocities (25 entries). With several
+    objects (FetchPushMultiStep-v0: `env.n_objects` = 2, 40 entries) each object field holds every
+    object in turn, named object0_pos, object1_pos, ... (`acder_lite.multistep.OBS_LAYOUT`).
     """
     xyz = lambda name: [f"{name}.{c}" for c in "xyz"]
-    has_object = env.has_object
-    names = xyz("grip_pos")
-    if has_object:
-        names += xyz("object_pos") + xyz("object_rel_pos")
-    names += ["finger_l", "finger_r"]
-    if has_object:
-        names += xyz("object_rot") + xyz("object_velp") + xyz("object_velr")
+    n_objects = getattr(env, "n_objects", 1) if env.has_object else 0
+    prefixes = ["object"] if n_objects == 1 else [f"object{i}" for i in range(n_objects)]
+    each = lambda field: [n for p in prefixes for n in xyz(f"{p}_{field}")]
+    names = xyz("grip_pos") + each("pos") + each("rel_pos") + ["finger_l", "finger_r"]
+    names += each("rot") + each("velp") + each("velr")
     names += xyz("grip_velp") + ["finger_vel_l", "finger_vel_r"]
     n = env._get_obs()["observation"].size
     if len(names) != n:  # a changed gymnasium-robotics layout must not be mislabelled silently
         raise RuntimeError(f"obs_names: {len(names)} names for an observation of {n} entries")
     return names
+
+
+def goal_names(env) -> list[str]:
+    """A name for each entry of the goal: goal.x/y/z, or goal0.x ... goal1.z for the two blocks of
+    FetchPushMultiStep-v0 (block 0's target, then block 1's)."""
+    n = env._get_obs()["desired_goal"].size
+    if n == 3:
+        return [f"goal.{c}" for c in "xyz"]
+    return [f"goal{i}.{c}" for i in range(n // 3) for c in "xyz"]
 
 
 def state_size(env) -> int:
