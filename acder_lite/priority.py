@@ -210,12 +210,14 @@ def trajectory_energy(ag: np.ndarray, dt: float, w_potential: float = 1.0, w_kin
     Fetch setting (README); their CLI default is 999.
     """
     ag = np.asarray(ag, np.float64)
-    if ag.ndim != 3 or ag.shape[2] < 3 or ag.shape[1] < 2:
-        raise ValueError(f"trajectory_energy: ag must be (n, T+1, 3), got {ag.shape}")
-    pos = ag[:, :, :3]
-    potential = m * g * (pos[:, 1:, 2] - pos[:, :1, 2])
+    if ag.ndim != 3 or ag.shape[2] < 3 or ag.shape[2] % 3 or ag.shape[1] < 2:
+        raise ValueError(f"trajectory_energy: ag must be (n, T+1, 3k), k objects, got {ag.shape}")
+    # k objects (the multi-step push has 2): each object's energy, summed; one object is exactly
+    # the single-object formula (a sum over one term adds nothing)
+    pos = ag.reshape(ag.shape[0], ag.shape[1], -1, 3)
+    potential = m * g * (pos[:, 1:, :, 2] - pos[:, :1, :, 2]).sum(axis=2)
     velocity = np.diff(pos, axis=1) / dt
-    kinetic = 0.5 * m * np.sum(velocity ** 2, axis=2)
+    kinetic = 0.5 * m * np.sum(velocity ** 2, axis=3).sum(axis=2)
     total = w_potential * potential + w_kinetic * kinetic
     dE = np.diff(total, axis=1, prepend=0.0)
     return np.clip(dE, 0.0, clip_energy).sum(axis=1)

@@ -40,6 +40,22 @@ def goal_oriented_factor(agent_pos: np.ndarray, goal: np.ndarray, action: np.nda
     return angle / (2 * np.pi) + 1.0
 
 
+def goal_factor_target(goal: np.ndarray, achieved: np.ndarray) -> np.ndarray:
+    """The 3-D goal g^h that Eq. 6 measures the action's angle against, shape (B, 3).
+
+    One object (3-D goals): the goal itself. Several (the multi-step push's 6-D goals, object k at
+    [3k, 3k+3)): the target of the object now farthest from its own, the one still to be pushed
+    (our choice; the paper names no rule for it). `achieved` is the objects' position at step t.
+    """
+    goal = np.asarray(goal)
+    if goal.shape[-1] == 3:
+        return goal
+    k = goal.shape[-1] // 3
+    g = goal.reshape(-1, k, 3)
+    far = np.argmax(np.linalg.norm(g - np.asarray(achieved).reshape(-1, k, 3), axis=-1), axis=1)
+    return g[np.arange(len(g)), far]
+
+
 def goal_oriented_reward(r_her: np.ndarray, lam: np.ndarray) -> np.ndarray:
     """Eq. 5: r^{e*}_t = lambda_r * r(s_t, a_t, g^h)."""
     return lam * r_her

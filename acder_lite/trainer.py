@@ -22,7 +22,7 @@ from .curiosity import ICM, SICM
 from .ddpg import DDPG
 from .her import sample_her_transitions
 from .normalizer import Normalizer
-from .rewards import intrinsic_reward, shaped_reward
+from .rewards import goal_factor_target, intrinsic_reward, shaped_reward
 from .rollout import Policy, run_episodes
 from .runfiles import RunFiles, versions
 from .start_states import StartStateSelector
@@ -208,7 +208,8 @@ class Trainer:
             if self.selector is not None:
                 self.selector.offer(batch, r_int, self.buffer)
         # agent position s^a_t = gripper position, o[:3] (DESIGN.md)
-        r, lam = shaped_reward(batch["r"], batch["her"], batch["o"][:, :3], batch["g"], batch["u"],
+        goal = goal_factor_target(batch["g"], batch["ag"])
+        r, lam = shaped_reward(batch["r"], batch["her"], batch["o"][:, :3], goal, batch["u"],
                                r_int if sw["curiosity_reward"] else None, sw["goal_factor"])
         if sw["goal_factor"]:
             self.diag["lam"] += float(lam.mean())

@@ -262,3 +262,37 @@ def test_bad_id_on_the_command_line(cli, tmp_path):
     lines = [l for l in p.stderr.splitlines() if l.strip()]
     assert len(lines) == 1 and "FetchPushMultiStep-v1" in lines[0] and ID in lines[0], p.stderr
     assert not (tmp_path / "run").exists()
+
+
+# ----- what the methods make of two objects (rewards.goal_factor_target, priority.trajectory_energy)
+
+def test_goal_factor_targets_the_block_farthest_from_its_own():
+    from acder_lite.rewards import goal_factor_target
+    g3 = np.array([[0.1, 0.2, 0.3]])
+    assert goal_factor_target(g3, np.zeros((1, 3))) is g3  # one object: the goal itself, untouched
+    goal = np.array([[1.0, 0, 0, 0, 2.0, 0], [1.0, 0, 0, 0, 2.0, 0]])
+    achieved = np.array([[1.0, 0, 0, 0, 0, 0],      # block 0 on target, block 1 2 m away
+                         [0.0, 0, 0, 0, 1.9, 0]])   # block 0 1 m away, block 1 0.1 m
+    np.testing.assert_array_equal(goal_factor_target(goal, achieved), [[0, 2.0, 0], [1.0, 0, 0]])
+
+
+def test_energy_counts_both_blocks():
+    from acder_lite.priority import trajectory_energy
+    T = 10
+    still = np.zeros((1, T + 1, 3))
+    moving = np.zeros((1, T + 1, 3))
+    moving[0, :, 0] = np.linspace(0, 0.05, T + 1)
+    one = trajectory_energy(moving, 0.04)
+    assert one[0] > 0
+    np.testing.assert_allclose(trajectory_energy(np.concatenate([still, moving], 2), 0.04), one)
+    np.testing.assert_allclose(trajectory_energy(np.concatenate([moving, moving], 2), 0.04),
+                               trajectory_energy(moving * np.sqrt(2), 0.04))  # kinetic adds up
+
+
+@pytest.mark.parametrize("method", ["acder", "her-ebp"])
+def test_every_method_runs_on_the_multistep_push(method):
+    from acder_lite.trainer import Trainer
+    from conftest import tiny_config
+    tr = Trainer(tiny_config(env="FetchPushMultiStep-v0", method=method, workers=2, epochs=1, cycles=2))
+    rows = tr.train(progress=False)
+    assert len(rows) == 1 and tr.buffer.o.shape[1:] == (101, 40)
