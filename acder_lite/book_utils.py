@@ -40,3 +40,42 @@ def glue(name: str, value, display: bool = False):
     if isinstance(value, str):
         value = Markdown(value)
     return _glue(name, value, display=display)
+
+
+def run_progress(runs: list[dict], env: str, name: str, paper_epochs: int,
+                 paper_episodes_per_epoch: int = 400) -> list[dict]:
+    """How far each seed of (env, name) got, for runs of `runs.load_runs`; [] when there is none.
+
+    One dict per seed with an evaluation: seed, epoch and episodes at its last evaluation, its test
+    success there and its best, the epochs its command planned, how it ended (`runs.how_ended`:
+    None while there is no done.json) and `share`, its training episodes over the paper's budget
+    (`paper_epochs` epochs of `paper_episodes_per_epoch` episodes)."""
+    from .runs import how_ended
+    out = []
+    for r in runs:
+        if r["env"] != env or r["name"] != name or not r["rows"]:
+            continue
+        last = r["rows"][-1]
+        epoch = last.get("epoch")
+        out.append(dict(seed=r["seed"], epoch=epoch if isinstance(epoch, float) else None,
+                        episodes=last["episodes"], success=last["test_success"],
+                        best=max(x["test_success"] for x in r["rows"]), planned=r["planned_epochs"],
+                        ended=how_ended(r), share=last["episodes"] / (paper_epochs * paper_episodes_per_epoch)))
+    return out
+
+
+def progress_sentence(label: str, seeds: list[dict], paper_epochs: int, started: bool = False) -> str:
+    """`run_progress` in words: "DDPG+HER: not run yet." (or, with `started`, a run folder exists
+    but holds no evaluation yet) or, per seed, the epoch reached (of those planned), its share of
+    the paper's budget and the test success at that last epoch."""
+    if not seeds:
+        return f"{label}: {'started, no evaluation yet' if started else 'not run yet'}."
+    parts = []
+    for s in seeds:
+        epoch = f"epoch {s['epoch']:g}" if s["epoch"] is not None else f"{s['episodes']:,.0f} episodes"
+        planned = f" of the {s['planned']} planned" if s["planned"] else ""
+        state = {None: "still running (no done.json yet)"}.get(s["ended"], f"ended: {s['ended']}")
+        parts.append(f"seed {s['seed']} reached {epoch}{planned} ({s['share']:.1%} of the paper's "
+                     f"budget of {paper_epochs} epochs), test success {s['success']:.2f} at its last epoch "
+                     f"(best {s['best']:.2f}); {state}")
+    return f"{label}: " + "; ".join(parts) + "."

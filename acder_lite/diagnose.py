@@ -10,6 +10,11 @@ draws minibatches from its replay buffer exactly as training does, and reports
 - **motion** (tasks with an object; needs only the committed `policy.pt`): how the trained policy
   moves the object on test episodes: its speed, its spin, and its path against the straight line.
 
+On the multi-step push (FetchPushMultiStep-v0: two blocks, 6-D goals) the state names are the 40
+observation entries (object0_..., object1_...) and goal0.x ... goal1.z; the pool reports each block
+(the gripper's distance to it, its distance to its own target) and the motion is per block. The
+one-object tasks report exactly the numbers they always did.
+
 Nothing is trained and nothing in the run folder is written, except the `--json` file if asked.
 Two traps it exists to show: when many rows sit at the clip, "the largest intrinsic reward" is a
 tie and the candidate is in effect any clipped row of a successful episode; and a candidate is a
@@ -24,14 +29,35 @@ import numpy as np
 import torch
 
 from . import envs as E
-from .config import Config, ConfigError
+from .config import OBJECT_ENVS, Config, ConfigError
 from .curiosity import SICM
 from .io import CheckpointError, check_policy_fits, load_torch, write_json
 
 
 def state_names(trainer) -> list[str]:
-    """Names of the S-ICM state s = (o, g): the observation entries, then the goal's."""
-    return E.obs_names(trainer.envs[0]) + [f"goal.{c}" for c in "xyz"][: trainer.dims["g"]]
+    """Names of the S-ICM state s = (o, g): the observation entries, then the goal's (goal.x/y/z,
+    or goal0.x ... goal1.z for the two blocks' targets of FetchPushMultiStep-v0)."""
+    env = trainer.envs[0]
+    names = E.obs_names(env) + E.goal_names(env)
+    size = trainer.dims["o"] + trainer.dims["g"]
+    if len(names) != size:  # a changed layout must not be mislabelled silently
+        raise RuntimeError(f"state_names: {len(names)} names for a state of {size} entries")
+    return names
+
+
+def n_objects(env) -> int:
+    """Objects on the table: 0 (Reach), 1 (Push, Pick&Place, Slide), 2 (FetchPushMultiStep-v0)."""
+    return int(getattr(env, "n_objects", 1)) if env.has_object else 0
+
+
+def object_fields(env, field: str) -> list[slice]:
+    """One slice of the observation per object for an object field (`pos`, `velr`, ...), by name:
+    object_velr.x..z on the one-object tasks, object0_velr.x..z, object1_velr.x..z on the multi-step
+    push (`envs.obs_names`)."""
+    names = E.obs_names(env)
+    k = n_objects(env)
+    prefixes = ["object"] if k == 1 else [f"object{i}" for i in range(k)]
+    return [slice(names.index(f"{p}_{field}.x"), names.index(f"{p}_{field}.z") + 1) for p in prefixes]
 
 
 def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
@@ -71,14 +97,19 @@ def pool_profile(trainer, far: float = 0.2) -> dict:
     """Where the pool's start states put the gripper (and the object, on tasks that have one).
 
     `far` (metres): a candidate whose gripper is farther than this from the object (or, on Reach,
-    from the candidate's goal) counts as far.
+    from the candidate's goal) counts as far. With several objects (the multi-step push) the
+    distance is to the nearest block, and `blocks` gives, per block, the gripper's distance to it
+    and the block's distance to its own target (the candidate's goal), with the share of candidates
+    where the block is on its target (within the env's distance_threshold).
     """
     if trainer.selector is None:
         raise ConfigError(f"method={trainer.cfg.method!r} has no start-state pool; allowed: acder, "
                           "acder-no-curiosity, acder-no-goal-factor")
     pool = list(trainer.selector.pool)
     env = E.make_env(trainer.cfg.env, seed=0)
-    grip, other, r_int = [], [], []
+    k = n_objects(env)
+    pos = object_fields(env, "pos") if k > 1 else None
+    grip, other, blocks, goals, r_int = [], [], [], [], []
     for c in pool:
         if c["state"].size != E.state_size(env):
             raise CheckpointError(f"the pool's states have {c['state'].size} numbers, not envs.STATE_SPEC's "
@@ -87,19 +118,47 @@ def pool_profile(trainer, far: float = 0.2) -> dict:
         o = env._get_obs()["observation"]
         grip.append(o[:3])
         other.append(o[3:6] if env.has_object else c["goal"])
+        if pos is not None:
+            blocks.append([o[s] for s in pos])
+            goals.append(np.asarray(c["goal"], np.float64).reshape(k, 3))
         r_int.append(c["r_int"])
     out = dict(size=len(pool), far=far, eta=trainer.cfg.eta)
     if not pool:
         return out
     grip, other, r_int = np.array(grip), np.array(other), np.array(r_int)
     d = np.linalg.norm(grip - other, axis=1)
+    if pos is not None:
+        blocks, goals = np.array(blocks), np.array(goals)          # (n, k, 3) each
+        to_block = np.linalg.norm(blocks - grip[:, None], axis=-1)  # (n, k)
+        to_target = np.linalg.norm(blocks - goals, axis=-1)
+        d = to_block.min(axis=1)
     out.update(
         share_at_clip=float((r_int >= trainer.cfg.eta).mean()),
-        distance_to=("object" if env.has_object else "goal"),
+        distance_to=("object" if k == 1 else "nearest block" if k else "goal"),
         distance_median=float(np.median(d)), distance_max=float(d.max()), share_far=float((d > far).mean()),
         gripper_z_min=float(grip[:, 2].min()), gripper_z_median=float(np.median(grip[:, 2])),
     )
+    if pos is not None:
+        out["blocks"] = [dict(distance_median=float(np.median(to_block[:, i])),
+                              distance_max=float(to_block[:, i].max()), share_far=float((to_block[:, i] > far).mean()),
+                              to_target_median=float(np.median(to_target[:, i])),
+                              share_on_target=float((to_target[:, i] < env.distance_threshold).mean()))
+                         for i in range(k)]
     return out
+
+
+def _motion_stats(ag: np.ndarray, velr: np.ndarray, dt: float) -> dict:
+    """Speed, spin and path of one object: `ag` its positions (N, T+1, 3), `velr` the observation's
+    object_velr of it (N, T, 3, steps 1..T)."""
+    steps = np.linalg.norm(np.diff(ag, axis=1), axis=-1)  # (N, T)
+    speed = steps / dt
+    spin = np.linalg.norm(velr, axis=-1) / dt
+    path = steps.sum(1)
+    disp = np.linalg.norm(ag[:, -1] - ag[:, 0], axis=-1)
+    moved = disp > 0.02  # episodes where the object ended more than 2 cm from where it began
+    return dict(speed_mean=float(speed.mean()), spin_mean=float(spin.mean()), spin_p99=float(np.quantile(spin, 0.99)),
+                path_mean=float(path.mean()), moved_share=float(moved.mean()),
+                path_over_distance=float(np.median(path[moved] / disp[moved])) if moved.any() else float("nan"))
 
 
 def object_motion(policy, env_id: str, episodes: int = 40, seed: int = 12345, workers: int = 4) -> dict:
@@ -109,35 +168,37 @@ def object_motion(policy, env_id: str, episodes: int = 40, seed: int = 12345, wo
     observation's `object_velr`, which Fetch scales by dt). Per episode: the object's path length
     over the distance from its first to its last position (1 = a straight push; large = pushed
     around). `episodes` is rounded up to a multiple of `workers` (envs stepped together).
+
+    With several objects (the multi-step push) every number is per block, under `blocks` (block 0
+    first; its achieved-goal columns [3k, 3k+3) and its own object{k}_velr entries), beside the
+    episodes' success (both blocks on their targets).
     """
     from .rollout import run_episodes
     envs = [E.make_env(env_id, seed=seed + i) for i in range(workers)]
     if not envs[0].has_object:
-        raise ConfigError(f"env={env_id!r} has no object to follow; allowed: FetchPush-v4, FetchPickAndPlace-v4")
-    names = E.obs_names(envs[0])
-    velr = slice(names.index("object_velr.x"), names.index("object_velr.z") + 1)
+        raise ConfigError(f"env={env_id!r} has no object to follow; allowed: {', '.join(OBJECT_ENVS)}")
+    velr = object_fields(envs[0], "velr")
     dt, T = float(envs[0].dt), E.horizon(env_id)
-    speed, spin, path, disp, succ = [], [], [], [], []
+    ags, spins, succ = [], [], []
     for _ in range(-(-episodes // workers)):
         ep = run_episodes(envs, policy, T)
-        steps = np.linalg.norm(np.diff(ep["ag"].astype(np.float64), axis=1), axis=-1)  # (W, T)
-        speed.append(steps / dt)
-        spin.append(np.linalg.norm(ep["o"][:, 1:, velr].astype(np.float64), axis=-1) / dt)
-        path.append(steps.sum(1))
-        disp.append(np.linalg.norm(ep["ag"][:, -1].astype(np.float64) - ep["ag"][:, 0], axis=-1))
+        ags.append(ep["ag"].astype(np.float64))
+        spins.append(np.stack([ep["o"][:, 1:, s].astype(np.float64) for s in velr]))  # (k, W, T, 3)
         succ.append(ep["success"])
-    speed, spin = np.concatenate(speed), np.concatenate(spin)
-    path, disp, succ = np.concatenate(path), np.concatenate(disp), np.concatenate(succ)
-    moved = disp > 0.02  # episodes where the object ended more than 2 cm from where it began
-    return dict(episodes=int(succ.size), success=float(succ.mean()), speed_mean=float(speed.mean()),
-                spin_mean=float(spin.mean()), spin_p99=float(np.quantile(spin, 0.99)),
-                path_mean=float(path.mean()), moved_share=float(moved.mean()),
-                path_over_distance=float(np.median(path[moved] / disp[moved])) if moved.any() else float("nan"))
+    ag, spin, succ = np.concatenate(ags), np.concatenate(spins, axis=1), np.concatenate(succ)
+    stats = [_motion_stats(ag[..., 3 * i:3 * i + 3], spin[i], dt) for i in range(len(velr))]
+    out = dict(episodes=int(succ.size), success=float(succ.mean()))
+    if len(stats) == 1:
+        out.update(stats[0])
+    else:
+        out["blocks"] = stats
+    return out
 
 
-def diagnose(run_dir: str, batches: int = 10, episodes: int = 0, seed: int = 12345) -> dict:
-    """Curiosity and pool profiles of the run in `run_dir`, from its checkpoint.pt; or, with
-    `episodes` > 0, the object's motion under its policy.pt (which committed runs keep)."""
+def diagnose(run_dir: str, batches: int = 10, episodes: int = 0, seed: int = 12345, top: int = 5) -> dict:
+    """Curiosity and pool profiles of the run in `run_dir`, from its checkpoint.pt (the `top`
+    state entries by S-ICM error); or, with `episodes` > 0, the object's motion under its policy.pt
+    (which committed runs keep)."""
     from .rollout import Policy
     from .trainer import Trainer
     if episodes > 0:
@@ -176,7 +237,7 @@ def diagnose(run_dir: str, batches: int = 10, episodes: int = 0, seed: int = 123
                               f"{msg[:160]}); allowed: a checkpoint.pt written by train") from None
     out = dict(run=run_dir, method=cfg.method, env=cfg.env, episodes=tr.episodes, test_success=tr.success_rate)
     if isinstance(tr.curiosity, SICM):
-        out["curiosity"] = curiosity_profile(tr, batches)
+        out["curiosity"] = curiosity_profile(tr, batches, top)
     if tr.selector is not None:
         out["pool"] = pool_profile(tr)
     return out
@@ -202,12 +263,24 @@ def to_text(d: dict) -> str:
                          f"{p['distance_to']}: median {p['distance_median']:.3f} m, max {p['distance_max']:.3f} m, "
                          f"{p['share_far']:.2f} farther than {p['far']} m; gripper height min "
                          f"{p['gripper_z_min']:.3f} m, median {p['gripper_z_median']:.3f} m")
+            for i, b in enumerate(p.get("blocks", [])):
+                lines.append(f"  block {i}: gripper to it median {b['distance_median']:.3f} m, max {b['distance_max']:.3f} m, "
+                             f"{b['share_far']:.2f} farther than {p['far']} m; to its target median "
+                             f"{b['to_target_median']:.3f} m, on it in {b['share_on_target']:.2f} of the candidates")
     m = d.get("motion")
     if m:
-        lines.append(f"motion: {m['episodes']} test episodes, success {m['success']:.3f}; object speed {m['speed_mean']:.4f} m/s, "
-                     f"spin {m['spin_mean']:.3f} rad/s (99%: {m['spin_p99']:.2f}); moved in {m['moved_share']:.2f} of "
-                     f"the episodes, path {m['path_over_distance']:.2f} x the distance (median)")
+        head = f"motion: {m['episodes']} test episodes, success {m['success']:.3f}"
+        if "blocks" not in m:
+            lines.append(f"{head}; object {_motion_text(m)}")
+        else:
+            lines.append(head)
+            lines += [f"  block {i}: {_motion_text(b)}" for i, b in enumerate(m["blocks"])]
     return "\n".join(lines)
+
+
+def _motion_text(m: dict) -> str:
+    return (f"speed {m['speed_mean']:.4f} m/s, spin {m['spin_mean']:.3f} rad/s (99%: {m['spin_p99']:.2f}); moved in "
+            f"{m['moved_share']:.2f} of the episodes, path {m['path_over_distance']:.2f} x the distance (median)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -217,6 +290,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="instead, roll out the run's policy.pt for N test episodes and report how it "
                              "moves the object (tasks with an object; needs no checkpoint)")
     parser.add_argument("--seed", type=int, default=12345, help="seed of the test envs for --episodes")
+    parser.add_argument("--top", type=int, default=5, help="state entries to name by S-ICM error (default: 5)")
     parser.add_argument("--json", metavar="FILE", help="also write the numbers to FILE")
 
 
@@ -225,7 +299,9 @@ def run(args) -> int:
         raise ConfigError(f"batches={args.batches} is not allowed: an integer >= 1")
     if args.episodes < 0:
         raise ConfigError(f"episodes={args.episodes} is not allowed: an integer >= 0")
-    d = diagnose(args.run, args.batches, args.episodes, args.seed)
+    if args.top < 1:
+        raise ConfigError(f"top={args.top} is not allowed: an integer >= 1")
+    d = diagnose(args.run, args.batches, args.episodes, args.seed, args.top)
     print(to_text(d))
     if args.json:
         write_json(args.json, d)

@@ -6,8 +6,9 @@ A `Recording` is a list of frames; each frame holds the world pose of every visi
 chapter 6 — can be shown. `scene_from_recording` turns a recording into a Meshcat scene: meshes
 from `model.mesh_vert`/`mesh_face` (decimated by vertex clustering to keep the page small),
 primitives for boxes, spheres, cylinders, capsules and the floor plane, colours from `geom_rgba`
-or the geom's material, the goal as the model's `target0` site, and one animation track per
-moving geom. `save_scene_html` writes Meshcat's self-contained static page (three.js inlined, no
+or the geom's material, the goal as the model's `target0` site (a 6-D goal, the multi-step push's
+two blocks, as its `target0` and `target1` sites, each in the XML's colour), and one animation
+track per moving geom. `save_scene_html` writes Meshcat's self-contained static page (three.js inlined, no
 network), and `show_scene` embeds a saved page in a notebook with an iframe.
 """
 from __future__ import annotations
@@ -38,7 +39,7 @@ class Recording:
     model: mujoco.MjModel
     xpos: np.ndarray                 # (F, ngeom, 3)
     xmat: np.ndarray                 # (F, ngeom, 3, 3)
-    goal: np.ndarray                 # (F, 3)
+    goal: np.ndarray                 # (F, 3k): k targets (k = 2 on the multi-step push)
     dt: float                        # seconds between frames
     episode: dict = field(default_factory=dict)   # the rollout's arrays, if recorded from one
 
@@ -48,9 +49,14 @@ class Recording:
 
 
 def record_states(env, states: np.ndarray, goals: np.ndarray, dt: float | None = None) -> Recording:
-    """One frame per stored full MuJoCo state (`envs.get_state`); the env is put back afterwards."""
+    """One frame per stored full MuJoCo state (`envs.get_state`); the env is put back afterwards.
+
+    `goals`: one goal for all frames, (3k,), or one per frame, (F, 3k), k targets of 3 numbers."""
     states = np.asarray(states, np.float64)
-    goals = np.broadcast_to(np.asarray(goals, np.float64), (len(states), 3))
+    goals = np.asarray(goals, np.float64)
+    if goals.ndim not in (1, 2) or goals.shape[-1] % 3 or not goals.shape[-1]:
+        raise ValueError(f"record_states: goals must be (3k,) or (F, 3k), got {goals.shape}")
+    goals = np.broadcast_to(goals, (len(states), goals.shape[-1]))
     saved = E.get_state(env)
     m, d = env.model, env.data
     xpos = np.empty((len(states), m.ngeom, 3))
@@ -94,6 +100,11 @@ def _rgba(m, i: int) -> np.ndarray:
     if mat >= 0 and np.allclose(m.geom_rgba[i], _DEFAULT_RGBA):
         return np.array(m.mat_rgba[mat])
     return np.array(m.geom_rgba[i])
+
+
+def geom_rgba(m, i: int) -> np.ndarray:
+    """The colour the scene gives geom i (MuJoCo's rule, as `_rgba`), e.g. for a matching 2-D figure."""
+    return _rgba(m, i)
 
 
 def visible_geoms(m) -> list[int]:
@@ -209,6 +220,17 @@ def _site(m, name: str):
     return (float(m.site_size[i][0]), np.array(m.site_rgba[i])) if i >= 0 else (0.02, np.array([1, 0, 0, 1.0]))
 
 
+def target_nodes(goal_size: int) -> list[tuple[str, str, slice]]:
+    """(scene node, model site, goal columns) of each target marker: one 3-D goal is the node
+    `target` drawn as the site `target0` (as always); a 3k-D goal gives nodes `target0` ...
+    drawn as sites `target0` ... (FetchPushMultiStep-v0: red target0 for block 0, blue target1
+    for block 1, `multistep.TARGETS`)."""
+    k = goal_size // 3
+    if k == 1:
+        return [("target", "target0", slice(0, 3))]
+    return [(f"target{i}", f"target{i}", slice(3 * i, 3 * i + 3)) for i in range(k)]
+
+
 def scene_from_recording(rec: Recording, vis=None, cell: float | None = 0.012, markers=None,
                          marker_colors=None, marker_radius: float = 0.012, loop: int = 1000):
     """Build (or add to) a Meshcat visualizer showing `rec`, animated when it has several frames.
@@ -242,14 +264,16 @@ def scene_from_recording(rec: Recording, vis=None, cell: float | None = 0.012, m
             for k in range(F):
                 with anim.at_frame(vis, k) as frame:
                     frame["fetch"][f"geom{i}"].set_transform(_pose(rec.xpos[k, i], rec.xmat[k, i]))
-    radius, rgba = _site(m, "target0")
-    target = root["target"]
-    _set_object(target, mg.Sphere(radius), _material(rgba))
-    target.set_transform(_pose(rec.goal[0], np.eye(3)))
-    if F > 1 and np.ptp(rec.goal, axis=0).max() > 1e-9:
-        for k in range(F):
-            with anim.at_frame(vis, k) as frame:
-                frame["fetch"]["target"].set_transform(_pose(rec.goal[k], np.eye(3)))
+    for name, site, cols in target_nodes(rec.goal.shape[1]):
+        radius, rgba = _site(m, site)
+        target = root[name]
+        _set_object(target, mg.Sphere(radius), _material(rgba))
+        goal = rec.goal[:, cols]
+        target.set_transform(_pose(goal[0], np.eye(3)))
+        if F > 1 and np.ptp(goal, axis=0).max() > 1e-9:
+            for k in range(F):
+                with anim.at_frame(vis, k) as frame:
+                    frame["fetch"][name].set_transform(_pose(goal[k], np.eye(3)))
     if markers is not None:
         add_markers(vis, markers, marker_colors, marker_radius)
     if anim.clips:
@@ -341,6 +365,22 @@ def save_scene_html(vis, path: str) -> int:
     from .io import _atomic
     _atomic(path, lambda f: f.write(html.encode("utf-8")))
     return os.path.getsize(path)
+
+
+def scene_commands(html: str) -> list[dict]:
+    """The Meshcat commands a saved static page replays (set_object, set_transform, ...), decoded
+    from its base64 msgpack blobs: what a test or a reader can check a page holds without WebGL."""
+    import base64
+    import re
+
+    import umsgpack  # meshcat's own encoder (u-msgpack-python, one of its requirements)
+    blobs = re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html)
+    return [umsgpack.unpackb(base64.b64decode(b)) for b in blobs]
+
+
+def scene_objects(html: str) -> set[str]:
+    """Paths of the objects a saved static page draws (`/meshcat/fetch/target0`, ...)."""
+    return {c["path"] for c in scene_commands(html) if isinstance(c, dict) and c.get("type") == "set_object"}
 
 
 def repo_root() -> str:

@@ -131,3 +131,88 @@ def test_diagnose_refuses_a_checkpoint_of_another_state_layout(tmp_path, cli):
     torch.save(ck, run / "checkpoint.pt")
     r = cli("diagnose", str(run))
     assert r.returncode == 2 and "(51, 292)" in r.stderr and "Traceback" not in r.stderr
+
+
+# ----- the multi-step push (FetchPushMultiStep-v0): two blocks, 6-D goals
+
+MULTI = "FetchPushMultiStep-v0"
+
+
+def _place(env, block: int, xy) -> None:
+    """Put block `block` at table xy (its resting height kept) and recompute the kinematics."""
+    import mujoco
+    joint = f"object{block}:joint"
+    q = env._utils.get_joint_qpos(env.model, env.data, joint).copy()
+    q[:2] = xy
+    env._utils.set_joint_qpos(env.model, env.data, joint, q)
+    mujoco.mj_forward(env.model, env.data)
+
+
+def test_object_fields_name_each_block_of_the_multistep_push():
+    env = E.make_env(MULTI, seed=2)
+    obs = env._get_obs()["observation"]
+    for k, s in enumerate(D.object_fields(env, "pos")):
+        np.testing.assert_allclose(obs[s], env._utils.get_site_xpos(env.model, env.data, f"object{k}"))
+    assert [(s.start, s.stop) for s in D.object_fields(env, "velr")] == [(29, 32), (32, 35)]
+    assert [(s.start, s.stop) for s in D.object_fields(E.make_env("FetchPush-v4", seed=0), "velr")] == [(17, 20)]
+
+
+def test_diagnose_names_all_46_entries_of_a_multistep_checkpoint(tmp_path):
+    run = tmp_path / "acder"
+    Trainer(tiny_config(env=MULTI, method="acder", epochs=1, cycles=1), str(run)).train(progress=False)
+    d = D.diagnose(str(run), batches=1, top=46)
+    assert d["env"] == MULTI
+    names = [n for n, _ in d["curiosity"]["top_entries"]]
+    env = E.make_env(MULTI, seed=0)
+    expected = E.obs_names(env) + E.goal_names(env)
+    assert len(names) == len(set(names)) == 46 and sorted(names) == sorted(expected)
+    assert {"object0_velr.z", "object1_velr.z", "goal0.x", "goal1.z"} <= set(names)
+    assert "pool" in d and "curiosity:" in D.to_text(d)
+
+
+def test_pool_profile_reports_each_block_of_the_multistep_push():
+    tr = Trainer(tiny_config(env=MULTI, method="acder"))
+    env = tr.envs[0]
+    goal = env.goal.copy()
+    expected = []
+    for k, on_target in enumerate([(True, False), (True, True), (False, False)]):
+        env.reset(seed=k)
+        for b, on in enumerate(on_target):  # a block on its target, or 10 cm beside it
+            _place(env, b, goal[3 * b:3 * b + 2] + (0 if on else np.array([0.1, 0.0])))
+        grip = env._utils.get_site_xpos(env.model, env.data, "robot0:grip")
+        blocks = [env._utils.get_site_xpos(env.model, env.data, f"object{b}") for b in range(2)]
+        expected.append([np.linalg.norm(grip - p) for p in blocks])
+        tr.selector.pool.append(dict(state=E.get_state(env), goal=goal, r_int=0.9 if k else 0.1))
+    p = D.pool_profile(tr, far=0.2)
+    assert p["size"] == 3 and p["distance_to"] == "nearest block" and len(p["blocks"]) == 2
+    expected = np.array(expected)
+    assert p["distance_median"] == pytest.approx(np.median(expected.min(1)), abs=1e-9)
+    for b in range(2):
+        assert p["blocks"][b]["distance_median"] == pytest.approx(np.median(expected[:, b]), abs=1e-9)
+        assert p["blocks"][b]["distance_max"] == pytest.approx(expected[:, b].max(), abs=1e-9)
+    assert p["blocks"][0]["share_on_target"] == pytest.approx(2 / 3)
+    assert p["blocks"][1]["share_on_target"] == pytest.approx(1 / 3)
+    assert p["blocks"][1]["to_target_median"] == pytest.approx(0.1, abs=2e-3)
+    text = D.to_text(dict(run="r", method="acder", env=MULTI, pool=p))
+    assert "block 0:" in text and "block 1:" in text
+
+
+def test_object_motion_is_per_block_on_the_multistep_push():
+    """A policy that pushes block 1 only: block 1 moves, block 0 stays where it is."""
+    def push1(o, g):
+        rel = o[:, 12:15]  # object1_rel_pos
+        return np.concatenate([np.clip(10 * rel, -1, 1), np.zeros((o.shape[0], 1), np.float32)], 1)
+    m = D.object_motion(push1, MULTI, episodes=2, workers=2)
+    assert m["episodes"] == 2 and len(m["blocks"]) == 2 and "speed_mean" not in m
+    b0, b1 = m["blocks"]
+    assert b1["speed_mean"] > 0.005 and b1["moved_share"] > 0 and b1["path_over_distance"] >= 1.0
+    assert b0["speed_mean"] < b1["speed_mean"] / 10
+    text = D.to_text(dict(run="r", method="her", env=MULTI, motion=m))
+    assert text.count("block ") == 2
+
+
+def test_object_motion_error_lists_every_object_task():
+    from acder_lite.config import ConfigError, OBJECT_ENVS
+    with pytest.raises(ConfigError) as e:
+        D.object_motion(lambda o, g: np.zeros((len(o), 4)), "FetchReach-v4", episodes=1, workers=1)
+    assert all(env in str(e.value) for env in OBJECT_ENVS)

@@ -2,6 +2,7 @@
 import re
 
 import numpy as np
+import pytest
 
 from acder_lite import envs as E
 from acder_lite import viz
@@ -23,3 +24,56 @@ def test_scene_from_a_short_rollout(tmp_path):
     assert 1e5 < size < 2e6
     assert not re.search(r"<script[^>]+src=[\"']https?://", html)
     assert not list(tmp_path.glob("*.tmp"))
+    assert [p for p in viz.scene_objects(html) if "target" in p] == ["/meshcat/fetch/target"]  # one goal, one marker
+
+
+def _material_color(html: str, path: str) -> int:
+    (cmd,) = [c for c in viz.scene_commands(html) if c.get("type") == "set_object" and c["path"] == path]
+    return cmd["object"]["materials"][0]["color"]
+
+
+def test_push_scene_keeps_its_one_target():
+    env = E.make_env("FetchPush-v4", seed=0)
+    rec = viz.record_rollout(env, policy=None, steps=2, seed=0, every=2)
+    assert rec.goal.shape == (2, 3)
+    assert viz.target_nodes(3) == [("target", "target0", slice(0, 3))]
+
+
+def test_multistep_scene_draws_both_blocks_and_both_targets(tmp_path):
+    import mujoco
+    from acder_lite import multistep as M
+    env = E.make_env(M.ENV_ID, seed=1)
+    rec = viz.record_rollout(env, policy=None, steps=4, seed=1, every=2)
+    assert rec.goal.shape == (3, 6)
+    np.testing.assert_allclose(rec.goal[0], env.goal)
+    vis = viz.scene_from_recording(rec)
+    try:
+        viz.save_scene_html(vis, str(tmp_path / "multi.html"))
+    finally:
+        viz.close_visualizer(vis)
+    html = (tmp_path / "multi.html").read_text()
+    objects = viz.scene_objects(html)
+    targets = sorted(p for p in objects if p.rsplit("/", 1)[-1].startswith("target"))
+    assert targets == ["/meshcat/fetch/target0", "/meshcat/fetch/target1"]   # two target markers
+    m = env.model
+    for i, site in enumerate(M.TARGETS):   # each in its site's colour (red, blue)
+        sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site)
+        assert _material_color(html, f"/meshcat/fetch/target{i}") == viz._color(m.site_rgba[sid])
+    for name in M.OBJECTS:                 # both blocks drawn, coloured as the XML colours them
+        gid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name)
+        assert gid in viz.visible_geoms(m)
+        assert _material_color(html, f"/meshcat/fetch/geom{gid}") == viz._color(viz._rgba(m, gid))
+    blue = [float(x) for x in M.OBJECT1_RGBA.split()]
+    gid1 = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "object1")
+    assert _material_color(html, f"/meshcat/fetch/geom{gid1}") == viz._color(blue)
+
+
+def test_record_states_takes_one_goal_or_one_per_frame():
+    env = E.make_env("FetchPushMultiStep-v0", seed=0)
+    states = np.stack([E.get_state(env)] * 3)
+    rec = viz.record_states(env, states, env.goal)
+    assert rec.goal.shape == (3, 6) and np.allclose(rec.goal, env.goal)
+    rec = viz.record_states(env, states, np.arange(18.0).reshape(3, 6))
+    assert rec.goal[2, 5] == 17.0
+    with pytest.raises(ValueError, match="3k"):
+        viz.record_states(env, states, np.zeros(4))
