@@ -212,8 +212,9 @@ def trajectory_energy(ag: np.ndarray, dt: float, w_potential: float = 1.0, w_kin
     ag = np.asarray(ag, np.float64)
     if ag.ndim != 3 or ag.shape[2] < 3 or ag.shape[2] % 3 or ag.shape[1] < 2:
         raise ValueError(f"trajectory_energy: ag must be (n, T+1, 3k), k objects, got {ag.shape}")
-    # k objects (the multi-step push has 2): each object's energy, summed; one object is exactly
-    # the single-object formula (a sum over one term adds nothing)
+    # k objects (the multi-step push has 2): the objects' energies are added step by step, and
+    # only the sum's increments are clipped, so the result is at most the sum of the objects'
+    # own trajectory energies; one object is exactly the single-object formula
     pos = ag.reshape(ag.shape[0], ag.shape[1], -1, 3)
     potential = m * g * (pos[:, 1:, :, 2] - pos[:, :1, :, 2]).sum(axis=2)
     velocity = np.diff(pos, axis=1) / dt

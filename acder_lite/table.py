@@ -40,7 +40,7 @@ METHOD_LABELS = {
 """How the paper names each method (folder names: methods, and our experiments' names)."""
 
 TASK_LABELS = {"FetchReach-v4": "Reach", "FetchPush-v4": "Push", "FetchPickAndPlace-v4": "Pick&Place",
-               "FetchSlide-v4": "Slide"}
+               "FetchSlide-v4": "Slide", "FetchPushMultiStep-v0": "Multi-step Push"}
 
 HEADER = ("Task", "Method", "Seeds", "Mean curve", "95% interval (resamples crossing)",
           "Per seed: median (range), crossed", "Paper")
