@@ -4,7 +4,7 @@ PY    := .venv/bin/python
 PIP   := .venv/bin/pip
 JOBS  ?= 2
 
-.PHONY: setup test unit notebooks book train bench clean
+.PHONY: setup test unit notebooks book lab train bench clean
 
 setup: .venv/.installed
 
@@ -14,16 +14,23 @@ setup: .venv/.installed
 	$(PIP) install --disable-pip-version-check -q --no-deps --no-build-isolation -e .
 	touch $@
 
-# Unit tests, short learning runs and CLI errors, then every notebook under nbmake, all with
-# ACDER_FAST=1 (smaller budgets, same code path).
+# Unit tests, short learning runs and CLI errors, the browser tests (tests/test_browser.py: Debian's
+# /usr/bin/chromium, skipped with one line without it, kept on one worker by --dist loadgroup), then
+# every notebook under nbmake, all with ACDER_FAST=1 (smaller budgets, same code path).
 test: setup
-	ACDER_FAST=1 $(PY) -m pytest -n $(JOBS) -q tests
+	ACDER_FAST=1 $(PY) -m pytest -n $(JOBS) --dist loadgroup -rs -q tests
 	@if ls notebooks/*.ipynb >/dev/null 2>&1; then \
 	  ACDER_FAST=1 $(PY) -m pytest -n $(JOBS) -q --nbmake --nbmake-timeout=180 notebooks; fi
 
 # Execute the notebooks and build the HTML book into _build/html (offline, warnings are errors).
 book: setup
 	.venv/bin/jupyter-book build --warningiserror --keep-going .
+
+# The chapters in JupyterLab (jupyter-config/): 127.0.0.1 only, a fresh token in the URL it prints,
+# the venv's Python as the kernel, no news or update checks. `ACDER_FAST=1 make lab` for the fast
+# budgets; more options with ARGS="--port=8899 --no-browser".
+lab: setup
+	.venv/bin/jupyter lab --config=jupyter-config/jupyter_lab_config.py $(if $(filter 0,$(shell id -u)),--allow-root) $(ARGS)
 
 # make train ARGS="--env FetchPush-v4 --method acder --seed 0 --out results/FetchPush-v4/acder/seed0"
 train: setup
