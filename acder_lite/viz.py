@@ -13,6 +13,8 @@ network), and `show_scene` embeds a saved page in a notebook with an iframe.
 """
 from __future__ import annotations
 
+import itertools
+
 import os
 from dataclasses import dataclass, field
 
@@ -418,12 +420,26 @@ def close_visualizer(vis) -> None:
             pass
 
 
+_SCENE_IDS = itertools.count()
+"""Numbers the scene frames of a page (the same scene may be shown twice)."""
+
+
 def show_scene(name: str, height: int = 480):
     """An iframe showing book/_static/scenes/NAME.html, for a notebook under notebooks/.
 
     The src `../_static/scenes/NAME.html` is relative to the built page: chapters land in
     _build/html/notebooks/ and _config.yml's `html_static_path: [book/_static]` copies the scenes
-    to _build/html/_static/scenes/. (In a live Jupyter session open the .html file directly.)
+    to _build/html/_static/scenes/. Trap: in JupyterLab (`make lab`) the same relative src lands
+    on /lab/tree/_static/..., which is Lab's own page; there a line of script points the frame at
+    the file server instead (/files/book/_static/scenes/NAME.html, under Lab's base URL).
     """
-    from IPython.display import IFrame
-    return IFrame(f"../_static/scenes/{name}.html", width="100%", height=height)
+    import html
+
+    from IPython.display import HTML
+    fid = f"scene-{name}-{next(_SCENE_IDS)}"
+    src = f"../_static/scenes/{name}.html"
+    lab = f"/files/book/_static/scenes/{name}.html"
+    return HTML(f'<iframe id="{fid}" src="{html.escape(src)}" width="100%" height="{int(height)}" '
+                f'frameborder="0"></iframe><script>(function () {{ var p = window.location.pathname, '
+                f'i = p.indexOf("/lab/"); if (i >= 0) document.getElementById("{fid}").src = '
+                f'p.slice(0, i) + "{lab}"; }})();</script>')

@@ -77,3 +77,11 @@ def test_record_states_takes_one_goal_or_one_per_frame():
     assert rec.goal[2, 5] == 17.0
     with pytest.raises(ValueError, match="3k"):
         viz.record_states(env, states, np.zeros(4))
+
+
+def test_show_scene_frames_the_book_path_and_labs_file_server():
+    from acder_lite.viz import show_scene
+    a, b = show_scene("01_push_random", height=300).data, show_scene("01_push_random").data
+    assert 'src="../_static/scenes/01_push_random.html"' in a and 'height="300"' in a
+    assert '"/files/book/_static/scenes/01_push_random.html"' in a and 'indexOf("/lab/")' in a
+    assert a.split('id="')[1].split('"')[0] != b.split('id="')[1].split('"')[0]  # one id a frame
