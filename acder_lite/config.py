@@ -58,7 +58,7 @@ SICM_INPUTS = ("normalised", "raw")
 
 # Protocol v1 (experiments/protocol-v1/): what a config.json written before a field existed meant.
 # `Config.from_dict` fills these in, so an old run's recorded config still reproduces it.
-LEGACY_VALUES = dict(init="torch", buffer_scope="shared", sicm_input="normalised")
+LEGACY_VALUES = dict(init="torch", buffer_scope="shared", sicm_input="normalised", update_dtype="float32")
 LEGACY_METHODS = {"acder-baselines-clip": ("acder", "baselines")}
 """Methods of protocol v1 that are now a method plus a setting: name -> (method, target_clip)."""
 
@@ -77,8 +77,8 @@ class Config:
     env: str = "FetchReach-v4"
     """Gymnasium id of the task; one of `ENV_IDS`."""
     method: str = "her"
-    """A row of the method table (`METHODS`): ddpg, her, her-icm, her-per, her-ebp, acder, ablations,
-    acder-baselines-clip."""
+    """A row of the method table (`METHODS`): ddpg, her, her-icm, her-per, her-ebp, acder and its
+    ablations (protocol v1's acder-baselines-clip is acder with today's default target clip)."""
     seed: int = 0
     """Seeds numpy, torch and every env (worker i gets seed*1000+i, test envs seed*1000+500+i)."""
 
@@ -235,6 +235,10 @@ class Config:
 
         if self.env not in ENV_IDS:
             bad("env", "one of " + ", ".join(ENV_IDS))
+        if self.method in LEGACY_METHODS:
+            method, clip = LEGACY_METHODS[self.method]
+            raise ConfigError(f"method={self.method!r} is protocol v1's name; allowed: --method {method} "
+                              f"(its target clip, {clip!r}, is today's default)")
         if self.method not in METHODS:
             bad("method", "one of " + ", ".join(METHODS))
         if METHODS[self.method]["priority"] == "ebp" and self.env not in OBJECT_ENVS:

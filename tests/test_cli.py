@@ -34,6 +34,14 @@ def one_line_error(p, *needles):
     (["--restart-goal", "random"], ["restart_goal", "resample"]),
     (["--update-dtype", "float16"], ["update_dtype", "'bfloat16'"]),
     (["--stop-gap-episodes", "-1"], ["stop_gap_episodes", ">= 0"]),
+    (["--target-clip", "nope"], ["target_clip", "'baselines'", "'wide'"]),
+    (["--sicm-input", "x"], ["sicm_input", "'normalised'", "'raw'"]),
+    (["--init", "he"], ["init", "'xavier'", "'torch'"]),
+    (["--buffer-scope", "global"], ["buffer_scope", "'worker'", "'shared'"]),
+    (["--success-threshold", "1.5"], ["success_threshold", "(0, 1]"]),
+    (["--success-threshold", "0"], ["success_threshold", "(0, 1]"]),
+    (["--stop-patience", "-1"], ["stop_patience", ">= 0"]),
+    (["--method", "acder-baselines-clip"], ["method", "acder"]),
     (["--method", "her-ebp"], ["her-ebp", "object", "FetchPush-v4"]),
     (["--no-such-option", "1"], ["unrecognized", "--no-such-option"]),
 ])
@@ -42,6 +50,21 @@ def test_train_bad_input(cli, tmp_path, args, needles):
     p = cli("train", "--env", "FetchReach-v4", *args, "--out", str(out))
     one_line_error(p, *needles)
     assert not out.exists()
+
+
+def test_protocol_settings_reach_config_json(cli, tmp_path):
+    """The new settings are options of `train`; the presets fill what is not given."""
+    import json
+    out = tmp_path / "run"
+    p = cli("train", "--env", "FetchReach-v4", "--method", "acder", "--epochs", "1", *TINY,
+            "--target-clip", "wide", "--sicm-input", "raw", "--init", "torch", "--out", str(out))
+    assert p.returncode == 0, p.stderr
+    cfg = json.loads((out / "config.json").read_text())["config"]
+    assert (cfg["target_clip"], cfg["sicm_input"], cfg["init"]) == ("wide", "raw", "torch")
+    assert (cfg["success_threshold"], cfg["stop_patience"], cfg["buffer_scope"]) == (1.0, 5, "worker")
+    assert "target_clip" not in cfg["switches"]
+    done = json.loads((out / "done.json").read_text())
+    assert done["stop_reason"] == "budget" and done["stop_rule"]["success_threshold"] == 1.0
 
 
 def test_existing_run_is_not_overwritten_and_checkpoint_errors(cli, tmp_path):
@@ -102,6 +125,11 @@ def test_bench_both_dtypes_ends_with_the_bench_line(cli):
     assert lines[-1].startswith("bench: sim_ms_per_episode=")
     for key in ("train_ms_per_episode=", "ratio=", "update_gflops=", "matmul_gflops="):
         assert key in lines[-1]
+    fields = dict(kv.split("=") for kv in lines[-1].split()[1:])
+    limit, train = float(fields["limit_ms_per_episode"]), float(fields["train_ms_per_episode"])
+    assert 0 < float(fields["sim_ms_per_episode"]) < limit  # the limit is simulation plus the updates
+    assert float(fields["share_of_limit"]) == pytest.approx(limit / train, abs=0.01)
+    assert float(fields["grid_cpu_ms_per_episode"]) > 0
     for head in ("update_ms float32=", "train_ms_per_episode float32="):
         (cmp,) = [l for l in lines if l.startswith(head)]
         speedup = float(cmp.split("speedup=")[1].split()[0])

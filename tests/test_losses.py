@@ -121,15 +121,18 @@ def test_polyak():
 
 @pytest.mark.parametrize("cls", [SICM, ICM])
 def test_curiosity_losses_decrease_on_a_fixed_batch(cls):
+    from acder_lite.rewards import intrinsic_reward
     torch.manual_seed(0)
     s, a = torch.randn(256, 6), torch.rand(256, 2) * 2 - 1
     s2 = s + 0.1 * torch.cat([a, a, a], -1)        # a simple dynamics to learn
     m = cls(6, 2, hidden=64, lr=1e-3) if cls is SICM else cls(6, 2, feat_dim=16, hidden=64, lr=1e-3)
-    first = [float(m.step(s, a, s2, eta=0.8)[1]) for _ in range(5)]
+    first = [float(m.step(s, a, s2)[2]) for _ in range(5)]
     for _ in range(300):
-        r, loss = m.step(s, a, s2, eta=0.8)
+        pred, target, loss = m.step(s, a, s2)
     assert float(loss) < 0.3 * np.mean(first)
+    r = intrinsic_reward(pred.numpy(), target.numpy(), 0.8)   # Eq. 4 of what step returns
     assert r.shape == (256,) and float(r.min()) >= 0 and float(r.max()) <= 0.8
+    assert not pred.requires_grad and not target.requires_grad
 
 
 def test_sicm_reward_is_eq4_before_the_update():
@@ -139,5 +142,25 @@ def test_sicm_reward_is_eq4_before_the_update():
     s, a, s2 = torch.randn(8, 5), torch.randn(8, 2), torch.randn(8, 5)
     with torch.no_grad():
         want = intrinsic_reward(m(s, a).numpy(), s2.numpy(), 0.8)
-    r, _ = m.step(s, a, s2, 0.8)
-    np.testing.assert_allclose(r.numpy(), want, rtol=1e-5)
+    pred, target, _ = m.step(s, a, s2)
+    torch.testing.assert_close(target, s2)                 # S-ICM's target is s' itself
+    np.testing.assert_allclose(intrinsic_reward(pred.numpy(), target.numpy(), 0.8), want, rtol=1e-5)
+    with torch.no_grad():                                  # ... and the model did take a step
+        assert not torch.allclose(m(s, a), pred)
+
+
+def test_icm_reward_is_on_its_features_before_the_update():
+    """ICM's (pred, target) are phi(s') as its forward model predicts it and phi(s') itself."""
+    from acder_lite.rewards import intrinsic_reward
+    torch.manual_seed(2)
+    m = ICM(5, 2, feat_dim=4, hidden=16)
+    s, a, s2 = torch.randn(8, 5), torch.randn(8, 2), torch.randn(8, 5)
+    with torch.no_grad():
+        f, f2 = m.phi(s), m.phi(s2)
+        want_pred = m.forward_model(torch.cat([f, a], -1))
+    pred, target, _ = m.step(s, a, s2)
+    assert pred.shape == target.shape == (8, 4)
+    torch.testing.assert_close(target, f2)
+    torch.testing.assert_close(pred, want_pred)
+    r = intrinsic_reward(pred.numpy(), target.numpy(), 0.8)
+    np.testing.assert_allclose(r, np.clip(0.5 * ((want_pred - f2) ** 2).sum(-1).numpy(), 0, 0.8), rtol=1e-5)

@@ -1,10 +1,10 @@
-"""Eq. 4, 6 and 9 against values worked out by hand."""
+"""Eq. 4, 5-6 (and their sum, the shaped reward) and 9 against values worked out by hand."""
 import math
 
 import numpy as np
 import pytest
 
-from acder_lite.rewards import goal_oriented_factor, goal_oriented_reward, intrinsic_reward
+from acder_lite.rewards import goal_oriented_factor, goal_oriented_reward, intrinsic_reward, shaped_reward
 from acder_lite.start_states import novel_start_ratio
 
 
@@ -39,6 +39,45 @@ def test_eq6_batch_and_gripper_component_only():
     # Eq. 5: the factor scales the HER reward in {-1, 0}
     np.testing.assert_allclose(goal_oriented_reward(np.array([-1.0, 0.0, -1.0]), np.array([1.5, 1.5, 1.0])),
                                [-1.5, 0.0, -1.0])
+
+
+def _shaped_rows():
+    """Five rows, the gripper at the origin, the goal at x = 1; the action's gripper part decides
+    the angle (its 4th component, the fingers, is ignored)."""
+    pos = np.zeros((5, 3))
+    goal = np.tile([1.0, 0.0, 0.0], (5, 1))
+    act = np.array([[2.0, 0, 0, 1],     # towards the goal: lambda 1
+                    [-1.0, 0, 0, 1],    # away: 1.5
+                    [0, 1.0, 0, -1],    # perpendicular: 1.25
+                    [-1.0, 0, 0, 0],    # away, but not relabelled: 1
+                    [-1.0, 0, 0, 0]])   # away and relabelled, with r_her = 0: lambda 1.5 times 0
+    r_her = np.array([-1.0, -1.0, -1.0, -1.0, 0.0], np.float32)
+    relabelled = np.array([True, True, True, False, True])
+    return r_her, relabelled, pos, goal, act
+
+
+def test_shaped_reward_by_hand():
+    """r = lambda * r_her + r_i (Eq. 4-6): lambda on the relabelled rows only, r_i added to all."""
+    r_her, h, pos, goal, act = _shaped_rows()
+    r, lam = shaped_reward(r_her, h, pos, goal, act)
+    np.testing.assert_allclose(lam, [1.0, 1.5, 1.25, 1.0, 1.5])
+    np.testing.assert_allclose(r, [-1.0, -1.5, -1.25, -1.0, 0.0])
+    r_int = np.array([0.1, 0.2, 0.3, 0.4, 0.05], np.float32)
+    r, lam = shaped_reward(r_her, h, pos, goal, act, r_int)
+    np.testing.assert_allclose(lam, [1.0, 1.5, 1.25, 1.0, 1.5])
+    np.testing.assert_allclose(r, [-0.9, -1.3, -0.95, -0.6, 0.05], rtol=1e-6)
+    assert r.dtype == np.float32 and r.shape == (5,)
+
+
+def test_shaped_reward_without_the_goal_factor():
+    r_her, h, pos, goal, act = _shaped_rows()
+    r, lam = shaped_reward(r_her, h, pos, goal, act, goal_factor=False)
+    np.testing.assert_array_equal(lam, np.ones(5))
+    np.testing.assert_array_equal(r, r_her)
+    r, _ = shaped_reward(r_her, h, pos, goal, act, np.full(5, 0.5, np.float32), goal_factor=False)
+    np.testing.assert_allclose(r, r_her + 0.5)
+    r, lam = shaped_reward(r_her, np.zeros(5, bool), pos, goal, act)   # nothing relabelled: lambda 1
+    np.testing.assert_array_equal(lam, np.ones(5))
 
 
 def test_eq9_novel_start_ratio():

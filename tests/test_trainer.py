@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from acder_lite.config import METHODS
-from acder_lite.rewards import goal_oriented_factor
+from acder_lite.rewards import shaped_reward
 from acder_lite.trainer import Trainer, target_clip
 
 from conftest import tiny_config
@@ -86,9 +86,11 @@ def test_ebp_on_push_and_clip_range():
     tr = Trainer(tiny_config(method="her-ebp", env="FetchPush-v4", epochs=1))
     tr.train(False)
     assert tr.ebp is not None
-    acder = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1))
-    assert acder.clip_return == pytest.approx((-1.5 / 0.02, 0.8 / 0.02))
     assert tr.clip_return == pytest.approx((-50.0, 0.0))
+    acder = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1))
+    assert acder.clip_return == pytest.approx((-50.0, 0.0))   # protocol v2: Baselines' clip for every method
+    wide = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1, target_clip="wide"))
+    assert wide.clip_return == pytest.approx((-1.5 / 0.02, 0.8 / 0.02))
 
 
 @pytest.mark.parametrize("method, expected", [
@@ -97,15 +99,16 @@ def test_ebp_on_push_and_clip_range():
     ("acder-no-goal-factor", (-50.0, 40.0)),
     ("acder-no-curiosity", (-75.0, 0.0)),
     ("her-icm", (-50.0, 40.0)),
-    ("acder-baselines-clip", (-50.0, 0.0)),     # Baselines' clip whatever the rewards
 ])
 def test_target_clip_by_hand(method, expected):
-    """gamma = 0.98, so 1 / (1 - gamma) = 50; eta = 0.8 (Push)."""
-    assert target_clip(METHODS[method], 0.8, 0.98) == pytest.approx(expected)
+    """The wide clip: the range the method's rewards can reach over 1 - gamma; gamma = 0.98, so
+    1 / (1 - gamma) = 50; eta = 0.8 (Push). Baselines' clip is [-50, 0] whatever the rewards."""
+    assert target_clip("wide", METHODS[method], 0.8, 0.98) == pytest.approx(expected)
+    assert target_clip("baselines", METHODS[method], 0.8, 0.98) == pytest.approx((-50.0, 0.0))
 
 
 def test_baselines_clip_caps_the_critics_target_at_zero():
-    tr = Trainer(tiny_config(method="acder-baselines-clip", env="FetchPush-v4", epochs=1))
+    tr = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1))  # target_clip="baselines", the default
     tr.train(False)
     assert tr.clip_return == pytest.approx((-50.0, 0.0))
     batch = tr.sample_batch()
@@ -127,8 +130,13 @@ def test_baselines_clip_caps_the_critics_target_at_zero():
 @pytest.mark.parametrize("method", sorted(m for m, sw in METHODS.items() if sw["start_states"]))
 def test_start_states_are_used(method):
     """Once the pool holds candidates, episodes restart from stored states: in every method that
-    has start states, the ablation without curiosity included (its S-ICM still ranks them)."""
+    has start states, the ablation without curiosity included (its S-ICM still ranks them).
+
+    A lenient Reach (success within 15 cm instead of 5, for rewards and success alike) so that
+    successful episodes, the only source of candidates, come within 24 untrained episodes."""
     tr = Trainer(tiny_config(method=method, env="FetchReach-v4", epochs=3, cycles=4))
+    for env in tr.envs:  # tr.reward_fn is envs[0]'s compute_reward: it follows
+        env.distance_threshold = 0.15
     tr.train(False)
     assert tr.buffer.success[: tr.buffer.n].any() and len(tr.selector.pool) > 0
     assert max(r["novel_start_share"] for r in tr.rows) > 0
@@ -137,14 +145,13 @@ def test_start_states_are_used(method):
 def test_no_curiosity_keeps_r_int_out_of_the_reward():
     tr = Trainer(tiny_config(method="acder-no-curiosity", epochs=1, cycles=2))
     tr.train(False)
-    assert tr.clip_return == pytest.approx((-1.5 / 0.02, 0.0))
+    assert tr.clip_return == pytest.approx((-50.0, 0.0))
     batch = tr.sample_batch()
     before = [p.detach().clone() for p in tr.curiosity.parameters()]
     r = tr.rewards(batch, tr.batch_tensors(batch)).numpy()
-    lam = np.ones_like(r)
-    h = batch["her"]
-    lam[h] = goal_oriented_factor(batch["o"][h, :3], batch["g"][h], batch["u"][h])
-    np.testing.assert_allclose(r, lam * batch["r"], rtol=1e-6)
+    want, lam = shaped_reward(batch["r"], batch["her"], batch["o"][:, :3], batch["g"], batch["u"])  # no r_int
+    assert (lam > 1).any()  # the goal factor is on
+    np.testing.assert_allclose(r, want, rtol=1e-6)
     # ... while S-ICM still trains on the minibatch (it ranks the start states)
     assert any(not bool((a == b).all()) for a, b in zip(before, tr.curiosity.parameters()))
 
@@ -157,7 +164,7 @@ def test_no_curiosity_keeps_r_int_out_of_the_reward():
 def test_stop_reasons(tmp_path, gap, script, reason, episodes):
     import json
     from acder_lite import table as T
-    cfg = tiny_config(epochs=5, eval_every_cycles=1, stop_after_success=0.95, stop_patience=2,
+    cfg = tiny_config(epochs=5, eval_every_cycles=1, success_threshold=0.95, stop_patience=2,
                       stop_gap_episodes=gap)
     tr = Trainer(cfg, str(tmp_path / "run"))
     scripted = iter(script)
@@ -169,3 +176,59 @@ def test_stop_reasons(tmp_path, gap, script, reason, episodes):
     (run,) = T.load_runs(tmp_path)
     assert T.how_ended(run) == {"gap after first success": "hovering", "budget": "full budget",
                                 "success held": "early stop"}[reason]
+
+
+@pytest.mark.parametrize("method, sicm_input", [
+    ("acder", "normalised"), ("acder", "raw"), ("acder-no-goal-factor", "normalised"),
+    ("acder-no-curiosity", "normalised"), ("her-icm", "normalised"),
+])
+def test_the_reward_is_shaped_reward_plus_eq4_of_the_curiositys_prediction(method, sicm_input):
+    """On a fixed minibatch: Eq. 4 by hand of what the curiosity module predicts before its step
+    (S-ICM: s' from s and a; ICM: phi(s') from phi(s) and a), then rewards.shaped_reward."""
+    import torch
+    tr = Trainer(tiny_config(method=method, env="FetchPush-v4", epochs=1, sicm_input=sicm_input))
+    tr.train(False)
+    batch = tr.sample_batch()
+    tb = tr.batch_tensors(batch)
+    s, s2 = tr.curiosity_inputs(batch, tb)
+    with torch.no_grad():
+        if method == "her-icm":
+            m = tr.curiosity
+            pred, target = m.forward_model(torch.cat([m.phi(s), tb["u"]], -1)), m.phi(s2)
+        else:
+            pred, target = tr.curiosity(s, tb["u"]), s2
+    r_int = np.clip(0.5 * ((pred - target) ** 2).sum(-1).numpy().astype(np.float64), 0, tr.cfg.eta)
+    sw = tr.cfg.switches
+    want, _ = shaped_reward(batch["r"], batch["her"], batch["o"][:, :3], batch["g"], batch["u"],
+                            r_int.astype(np.float32) if sw["curiosity_reward"] else None, sw["goal_factor"])
+    r = tr.rewards(batch, tb).numpy()
+    np.testing.assert_allclose(r, want, rtol=1e-5, atol=1e-6)
+    if sw["curiosity_reward"]:
+        assert (r_int > 0).all() and not np.allclose(r, batch["r"])
+
+
+def test_curiosity_inputs_normalised_or_raw():
+    """S-ICM sees the policy's normalised (o, g) by default; 'raw' gives (o, g) clipped to
+    clip_obs only, with the goal of the row in s and s' alike."""
+    import torch
+    runs = {k: Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1, sicm_input=k))
+            for k in ("normalised", "raw")}
+    for tr in runs.values():
+        tr.train(False)
+    tr = runs["normalised"]
+    batch = tr.sample_batch()
+    tb = tr.batch_tensors(batch)
+    s, s2 = tr.curiosity_inputs(batch, tb)
+    assert s is tb["x"] and s2 is tb["x2"]
+    o_n = tr.o_norm.normalize(np.clip(batch["o"], -200, 200))
+    g_n = tr.g_norm.normalize(np.clip(batch["g"], -200, 200))
+    np.testing.assert_allclose(s.numpy(), np.concatenate([o_n, g_n], 1), rtol=1e-4, atol=1e-4)
+    tr = runs["raw"]
+    batch = tr.sample_batch()
+    s, s2 = tr.curiosity_inputs(batch, tr.batch_tensors(batch))
+    np.testing.assert_allclose(s.numpy(), np.concatenate([batch["o"], batch["g"]], 1), rtol=1e-6)
+    np.testing.assert_allclose(s2.numpy(), np.concatenate([batch["o2"], batch["g"]], 1), rtol=1e-6)
+    assert s.dtype == torch.float32 and not np.allclose(s.numpy(), tr.batch_tensors(batch)["x"].numpy())
+    batch["o"] = batch["o"] + 1e3     # beyond clip_obs = 200: clipped, not normalised
+    s, _ = tr.curiosity_inputs(batch, tr.batch_tensors(batch))
+    assert float(s[:, : tr.dims["o"]].max()) == 200.0
