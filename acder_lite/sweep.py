@@ -396,7 +396,9 @@ def _connect(args):
     runtime_env = {"env_vars": {"PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}}
     if args.address:
         return ray.init(address=args.address, runtime_env=runtime_env, **quiet)
-    return ray.init(num_cpus=args.jobs * args.threads, object_store_memory=100 * 2**20,
+    # address="local": always a Ray of our own (without it ray.init may join a cluster that
+    # `ray start` left running, or RAY_ADDRESS names)
+    return ray.init(address="local", num_cpus=args.jobs * args.threads, object_store_memory=100 * 2**20,
                     runtime_env=runtime_env, **quiet)
 
 
