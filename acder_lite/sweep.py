@@ -40,6 +40,9 @@ EXIT_INTERRUPTED = 130
 MAX_RETRIES = 3
 """Ray's retries of a cell whose worker process died (each retry resumes from the checkpoint)."""
 
+START_ATTEMPTS = 3
+"""How often the sweep tries to start its local Ray (each try has Ray's own 30 s)."""
+
 CONNECT_TIMEOUT_S = 5.0
 """How long `--address HOST:PORT` may take to answer before the sweep gives up (exit 2)."""
 
@@ -397,9 +400,17 @@ def _connect(args):
     if args.address:
         return ray.init(address=args.address, runtime_env=runtime_env, **quiet)
     # address="local": always a Ray of our own (without it ray.init may join a cluster that
-    # `ray start` left running, or RAY_ADDRESS names)
-    return ray.init(address="local", num_cpus=args.jobs * args.threads, object_store_memory=100 * 2**20,
-                    runtime_env=runtime_env, **quiet)
+    # `ray start` left running, or RAY_ADDRESS names). Trap: Ray gives its raylet a fixed 30 s to
+    # register (node.py), which a machine busy with training can miss: try again.
+    for attempt in range(1, START_ATTEMPTS + 1):
+        try:
+            return ray.init(address="local", num_cpus=args.jobs * args.threads,
+                            object_store_memory=100 * 2**20, runtime_env=runtime_env, **quiet)
+        except Exception as e:  # Ray raises a bare Exception for this
+            if "timed out during startup" not in str(e) or attempt == START_ATTEMPTS:
+                raise
+            ray.shutdown()
+            _say(f"the local Ray did not start in time (attempt {attempt} of {START_ATTEMPTS}); trying again")
 
 
 def run(args) -> int:
@@ -441,7 +452,12 @@ def run(args) -> int:
     try:
         _connect(args)
     except (ConnectionError, RuntimeError, ValueError) as e:
+        if not args.address:
+            raise
         return bad(f"--address={args.address!r}: no Ray cluster there ({str(e).splitlines()[0][:160]})")
+    except Exception as e:  # the local Ray's start timed out START_ATTEMPTS times
+        print(f"error: sweep: the local Ray did not start: {str(e).splitlines()[0][:200]}", file=sys.stderr)
+        return 1
     try:
         return _drive(todo, args, len(cells) - len(todo))
     finally:

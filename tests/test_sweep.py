@@ -259,11 +259,12 @@ def _epochs_done(run: Path) -> int:
         return 0
 
 
+@pytest.mark.xdist_group("ray")  # one local Ray at a time: a busy machine starts them slowly
 def test_ray_grid_completes_then_skips(tmp_path):
     """Two cells on a local Ray: both done.json; the same command again skips both, starts no Ray."""
     results = tmp_path / "results"
     out = subprocess.run(_sweep_cmd(results, [0, 1], 2), cwd=tmp_path, env=_env(), capture_output=True,
-                         text=True, timeout=240)
+                         text=True, timeout=400)
     assert out.returncode == 0, out.stdout + out.stderr
     for k in (0, 1):
         run = results / "FetchReach-v4" / "her" / f"seed{k}"
@@ -272,11 +273,12 @@ def test_ray_grid_completes_then_skips(tmp_path):
         cmd = __import__("json").loads((run / "config.json").read_text())["command"]
         assert cmd.startswith("python -m acder_lite train --env FetchReach-v4") and f"--out {run}" in cmd
     again = subprocess.run(_sweep_cmd(results, [0, 1], 2), cwd=tmp_path, env=_env(), capture_output=True,
-                           text=True, timeout=60)
+                           text=True, timeout=120)
     assert again.returncode == 0 and "nothing to run: 2 skipped" in again.stdout
     assert again.stdout.count("(already complete)") == 2
 
 
+@pytest.mark.xdist_group("ray")  # one local Ray at a time: a busy machine starts them slowly
 def test_ray_retries_a_killed_worker_from_its_checkpoint(tmp_path):
     """Kill the worker training a cell (its pid is in train.log): Ray's retry resumes it, and the
     run ends with the same progress.csv as an uninterrupted run (but wall_s)."""
@@ -285,10 +287,10 @@ def test_ray_retries_a_killed_worker_from_its_checkpoint(tmp_path):
     proc = subprocess.Popen(_sweep_cmd(results, [0], epochs), cwd=tmp_path, env=_env(),
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
-        _wait_for(lambda: _epochs_done(run) >= 2 and (run / "checkpoint.pt").exists(), proc, 150)
+        _wait_for(lambda: _epochs_done(run) >= 2 and (run / "checkpoint.pt").exists(), proc, 300)
         pid = int((run / "train.log").read_text().split(" sweep: pid ", 1)[1].split(":", 1)[0])
         os.kill(pid, signal.SIGKILL)
-        out, _ = proc.communicate(timeout=180)
+        out, _ = proc.communicate(timeout=300)
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -300,10 +302,11 @@ def test_ray_retries_a_killed_worker_from_its_checkpoint(tmp_path):
     ref = tmp_path / "ref"
     argv = ["train", "--env", "FetchReach-v4", "--method", "her", "--seed", "0", "--out", str(ref),
             "--epochs", str(epochs), "--threads", "1", "--quiet", *TINY.split()]
-    assert subprocess.run([sys.executable, "-m", "acder_lite", *argv], env=_env(), timeout=180).returncode == 0
+    assert subprocess.run([sys.executable, "-m", "acder_lite", *argv], env=_env(), timeout=300).returncode == 0
     assert _rows(run) == _rows(ref) and len(_rows(run)) == epochs
 
 
+@pytest.mark.xdist_group("ray")  # one local Ray at a time: a busy machine starts them slowly
 def test_ray_ctrl_c_keeps_checkpoints_and_the_same_command_finishes(tmp_path):
     results = tmp_path / "results"
     run = results / "FetchReach-v4" / "her" / "seed0"
@@ -311,15 +314,15 @@ def test_ray_ctrl_c_keeps_checkpoints_and_the_same_command_finishes(tmp_path):
     proc = subprocess.Popen(cmd, cwd=tmp_path, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True)
     try:
-        _wait_for(lambda: (run / "checkpoint.pt").exists(), proc, 150)
+        _wait_for(lambda: (run / "checkpoint.pt").exists(), proc, 300)
         proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=60)
+        out, _ = proc.communicate(timeout=120)
     finally:
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 130, out
     assert (run / "checkpoint.pt").exists() and not (run / "done.json").exists()
-    out = subprocess.run(cmd, cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=240)
+    out = subprocess.run(cmd, cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=400)
     assert out.returncode == 0, out.stdout + out.stderr
     assert "to resume" in out.stdout and "finish FetchReach-v4/her/seed0: done" in out.stdout
     assert len(_rows(run)) == 12
