@@ -26,3 +26,45 @@ def run_cli(*args, timeout=300, **kw):
 @pytest.fixture
 def cli():
     return run_cli
+
+
+def listening(pid: int) -> list[tuple[str, int]]:
+    """(address, port) of the TCP sockets process `pid` listens on (as in test_safe_loading)."""
+    try:
+        import psutil
+    except ImportError:
+        psutil = None
+    if psutil is not None:
+        try:
+            return [(c.laddr.ip, c.laddr.port) for c in psutil.Process(pid).net_connections(kind="inet")
+                    if c.status == psutil.CONN_LISTEN]
+        except psutil.NoSuchProcess:
+            return []
+    if not os.path.isdir(f"/proc/{pid}/fd"):
+        pytest.skip("neither psutil nor /proc to read listening sockets")
+    inodes = set()
+    for fd in os.listdir(f"/proc/{pid}/fd"):
+        try:
+            link = os.readlink(f"/proc/{pid}/fd/{fd}")
+        except OSError:
+            continue
+        if link.startswith("socket:["):
+            inodes.add(link[8:-1])
+    out = []
+    for table, v6 in (("/proc/net/tcp", False), ("/proc/net/tcp6", True)):
+        if not os.path.exists(table):
+            continue
+        for line in open(table).read().splitlines()[1:]:
+            f = line.split()
+            if f[3] != "0A" or f[9] not in inodes:   # 0A: LISTEN
+                continue
+            hexip, hexport = f[1].split(":")
+            raw = bytes.fromhex(hexip)
+            if v6:
+                import ipaddress
+                words = b"".join(raw[i:i + 4][::-1] for i in range(0, 16, 4))
+                ip = str(ipaddress.IPv6Address(words))
+            else:
+                ip = ".".join(str(b) for b in raw[::-1])
+            out.append((ip, int(hexport, 16)))
+    return out

@@ -18,6 +18,7 @@ from acder_lite import io as aio
 from acder_lite.io import CheckpointError, load_torch
 from acder_lite.trainer import Policy, Trainer
 from conftest import ROOT, tiny_config
+from conftest import listening as _listening
 
 COMMITTED = sorted(glob.glob(os.path.join(ROOT, "experiments", "protocol-v1", "**", "policy.pt"), recursive=True))
 REACH = os.path.join(ROOT, "experiments", "protocol-v1", "FetchReach-v4", "her", "seed0", "policy.pt")
@@ -350,45 +351,6 @@ def test_diagnose_reads_a_fresh_checkpoint(fresh):
 
 
 # ----- local servers listen on 127.0.0.1 only
-
-def _listening(pid: int) -> list[tuple[str, int]]:
-    """(address, port) of the TCP sockets process `pid` listens on."""
-    try:
-        import psutil
-    except ImportError:
-        psutil = None
-    if psutil is not None:
-        return [(c.laddr.ip, c.laddr.port) for c in psutil.Process(pid).net_connections(kind="inet")
-                if c.status == psutil.CONN_LISTEN]
-    if not os.path.isdir(f"/proc/{pid}/fd"):
-        pytest.skip("neither psutil nor /proc to read listening sockets")
-    inodes = set()
-    for fd in os.listdir(f"/proc/{pid}/fd"):
-        try:
-            link = os.readlink(f"/proc/{pid}/fd/{fd}")
-        except OSError:
-            continue
-        if link.startswith("socket:["):
-            inodes.add(link[8:-1])
-    out = []
-    for table, v6 in (("/proc/net/tcp", False), ("/proc/net/tcp6", True)):
-        if not os.path.exists(table):
-            continue
-        for line in open(table).read().splitlines()[1:]:
-            f = line.split()
-            if f[3] != "0A" or f[9] not in inodes:   # 0A: LISTEN
-                continue
-            hexip, hexport = f[1].split(":")
-            raw = bytes.fromhex(hexip)
-            if v6:
-                import ipaddress
-                words = b"".join(raw[i:i + 4][::-1] for i in range(0, 16, 4))
-                ip = str(ipaddress.IPv6Address(words))
-            else:
-                ip = ".".join(str(b) for b in raw[::-1])
-            out.append((ip, int(hexport, 16)))
-    return out
-
 
 def test_meshcat_listens_on_localhost_only():
     from acder_lite import viz
