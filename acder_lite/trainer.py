@@ -7,7 +7,6 @@ FetchReach), 20 deterministic test episodes per worker after each epoch. A metho
 """
 from __future__ import annotations
 
-import os
 import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -302,7 +301,7 @@ class Trainer:
         c = self.cfg
         if c.stop_gap_episodes <= 0:
             return False
-        from .table import episodes_to_threshold  # the first crossing exactly as Table I reads it
+        from .report import episodes_to_threshold  # the first crossing exactly as Table I reads it
         first = episodes_to_threshold(self.rows, c.success_threshold)
         return first is not None and self.episodes >= first + c.stop_gap_episodes
 
@@ -380,10 +379,6 @@ class Trainer:
                      test_envs=[E.env_rng_state(e) for e in self.test_envs]),
             versions=versions(),
         )
-
-    def save(self, path: str) -> None:
-        """checkpoint.pt at `path`, policy.pt beside it (as at every epoch end of a run)."""
-        RunFiles(os.path.dirname(path) or ".").save(self.state_dict(), self.policy_state())
 
     def load_state_dict(self, d: dict) -> None:
         self.agent.load_state_dict(d["agent"])
