@@ -101,7 +101,8 @@ def cmd_train(args) -> int:
     slow = warning_if_slow(trainer.cfg.update_dtype)
     if slow:
         print(slow, file=sys.stderr)
-    _interrupt_on_signals()
+    from .signals import interrupt_on_signals
+    interrupt_on_signals()
     try:
         rows = trainer.train(progress=not args.quiet)
     except KeyboardInterrupt:
@@ -112,18 +113,6 @@ def cmd_train(args) -> int:
     print(f"done: {out} epochs={trainer.cycle / cfg.cycles:g} episodes={trainer.episodes} "
           f"test_success={last.get('test_success', float('nan')):.3f}")
     return 0
-
-
-def _interrupt_on_signals() -> None:
-    """SIGINT and SIGTERM raise KeyboardInterrupt, so the run stops at once and keeps its last
-    checkpoint. Trap: a process started in the background by a non-interactive shell (nohup ... &)
-    inherits SIGINT *ignored*, and Python then leaves it ignored; we install the handler anyway."""
-    import signal
-
-    def handler(signum, frame):
-        raise KeyboardInterrupt
-    signal.signal(signal.SIGINT, handler)
-    signal.signal(signal.SIGTERM, handler)
 
 
 def cmd_eval(args) -> int:

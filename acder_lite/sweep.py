@@ -458,6 +458,8 @@ def run(args) -> int:
     except Exception as e:  # the local Ray's start timed out START_ATTEMPTS times
         print(f"error: sweep: the local Ray did not start: {str(e).splitlines()[0][:200]}", file=sys.stderr)
         return 1
+    from .signals import interrupt_on_signals
+    interrupt_on_signals()  # `kill PID` of a background sweep cancels its cells cleanly
     try:
         return _drive(todo, args, len(cells) - len(todo))
     finally:
