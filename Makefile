@@ -4,7 +4,7 @@ PY    := .venv/bin/python
 PIP   := .venv/bin/pip
 JOBS  ?= 2
 
-.PHONY: setup test unit notebooks book lab train bench clean
+.PHONY: setup test lint unit notebooks book lab train bench clean
 
 setup: .venv/.installed
 
@@ -17,10 +17,16 @@ setup: .venv/.installed
 # Unit tests, short learning runs and CLI errors, the browser tests (tests/test_browser.py: Debian's
 # /usr/bin/chromium, skipped with one line without it, kept on one worker by --dist loadgroup), then
 # every notebook under nbmake, all with ACDER_FAST=1 (smaller budgets, same code path).
-test: setup
+test: setup lint
 	ACDER_FAST=1 $(PY) -m pytest -n $(JOBS) --dist loadgroup -rs -q tests
 	@if ls notebooks/*.ipynb >/dev/null 2>&1; then \
 	  ACDER_FAST=1 $(PY) -m pytest -n $(JOBS) -q --nbmake --nbmake-timeout=180 notebooks; fi
+
+# Code lines fit the book's column (88, pyproject.toml): `ruff format` to fix what this finds.
+LINTED := acder_lite tests experiments notebooks
+lint: setup
+	.venv/bin/ruff format --check --no-cache $(LINTED)
+	.venv/bin/ruff check --no-cache $(LINTED)
 
 # Execute the notebooks and build the HTML book into _build/html (offline, warnings are errors).
 book: setup

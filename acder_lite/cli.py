@@ -1,7 +1,9 @@
-"""`python -m acder_lite {train,eval,bench,sweep,table,diagnose}`.
+"""`python -m acder_lite {train,eval,bench,sweep,table,diagnose,robust,export}`.
 
-Bad input exits with code 2 and one line naming the field and what is allowed; no traceback.
+Bad input exits with code 2 and one line naming the field and what is allowed; no
+traceback.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -13,9 +15,17 @@ from .config import Config, ConfigError, field_docs
 from .io import CheckpointError
 
 # Config fields that are not command-line options.
-_NOT_OPTIONS = {"switches", "update_dtype_why"}
+_NOT_OPTIONS = {"switches", "update_dtype_why", "device_why"}
 # Fields a resumed run may change (everything else is fixed by the checkpoint).
-_RESUMABLE = {"epochs", "threads", "step_threads", "success_threshold", "stop_patience", "stop_gap_episodes"}
+_RESUMABLE = {
+    "epochs",
+    "threads",
+    "step_threads",
+    "success_threshold",
+    "stop_patience",
+    "stop_gap_episodes",
+    "device",
+}  # device: the checkpoint loads onto the resumed run's
 
 
 class UsageError(Exception):
@@ -23,7 +33,8 @@ class UsageError(Exception):
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, exit 2 (argparse would print the usage block too)
+    # one line, exit 2 (argparse would print the usage block too)
+    def error(self, message):
         raise UsageError(f"{self.prog}: {message}")
 
 
@@ -43,19 +54,29 @@ def add_config_options(p: argparse.ArgumentParser) -> None:
             continue
         doc = docs.get(f.name, "").replace("%", "%%")
         default = f.default if f.default is not dataclasses.MISSING else None
-        p.add_argument("--" + f.name.replace("_", "-"), dest=f.name, type=_field_type(f), default=None,
-                       help=f"{doc} (default: {default})".strip())
+        p.add_argument(
+            "--" + f.name.replace("_", "-"),
+            dest=f.name,
+            type=_field_type(f),
+            default=None,
+            help=f"{doc} (default: {default})".strip(),
+        )
 
 
 def _given(args) -> dict:
-    return {f.name: getattr(args, f.name) for f in dataclasses.fields(Config)
-            if f.name not in _NOT_OPTIONS and getattr(args, f.name, None) is not None}
+    return {
+        f.name: getattr(args, f.name)
+        for f in dataclasses.fields(Config)
+        if f.name not in _NOT_OPTIONS and getattr(args, f.name, None) is not None
+    }
 
 
 def _command_line(argv: list[str] | None = None) -> list[str]:
-    """The command as a reader would retype it: `argv` as given to `main` (a sweep's Ray task
-    calls main in a worker whose sys.argv is Ray's), else sys.argv without the path of __main__.py."""
+    """The command as a reader would retype it: `argv` as given to `main` (a sweep's Ray
+    task calls main in a worker whose sys.argv is Ray's), else sys.argv without the path
+    of __main__.py."""
     import shlex
+
     argv = sys.argv[1:] if argv is None else argv
     return ["python", "-m", "acder_lite"] + [shlex.quote(a) for a in argv]
 
@@ -63,55 +84,80 @@ def _command_line(argv: list[str] | None = None) -> list[str]:
 def cmd_train(args) -> int:
     from .io import load_torch
     from .trainer import Trainer
+
     given = _given(args)
     if args.resume:
         ckpt_path = os.path.join(args.resume, "checkpoint.pt")
         ckpt = load_torch(ckpt_path)
-        if "buffer" not in ckpt:  # load_torch checked that a checkpoint has all its parts
-            raise CheckpointError(f"checkpoint {ckpt_path!r} holds a policy only, not the training state "
-                                  "--resume needs; allowed: the checkpoint.pt that train writes")
+        # load_torch checked that a checkpoint has all its parts
+        if "buffer" not in ckpt:
+            raise CheckpointError(
+                f"checkpoint {ckpt_path!r} holds a policy only, not the training state "
+                "--resume needs; allowed: the checkpoint.pt that train writes"
+            )
         cfg = Config.from_dict({k: v for k, v in ckpt["config"].items()})
         for k, v in given.items():
             if k in _RESUMABLE:
                 setattr(cfg, k, v)
+                if k == "device":  # resolved again: the checkpoint's why is stale
+                    cfg.device_why = ""
             elif v != getattr(cfg, k):
-                raise ConfigError(f"{k}={v!r} differs from the checkpoint's {getattr(cfg, k)!r}; "
-                                  f"a resumed run may change only: {', '.join(sorted(_RESUMABLE))}")
+                raise ConfigError(
+                    f"{k}={v!r} differs from the checkpoint's {getattr(cfg, k)!r}; "
+                    f"a resumed run may change only: {', '.join(sorted(_RESUMABLE))}"
+                )
         out = args.resume
         trainer = Trainer(cfg, out, command=_command_line(args.argv))
         try:
             trainer.load_state_dict(ckpt)
-        except (KeyError, RuntimeError, ValueError, TypeError) as e:  # e.g. networks of other sizes
+        except (KeyError, RuntimeError, ValueError, TypeError) as e:
+            # e.g. networks of other sizes
             if isinstance(e, CheckpointError):
                 raise
             first = (str(e).strip().splitlines() or [type(e).__name__])[0][:160]
-            raise CheckpointError(f"checkpoint {ckpt_path!r} does not fit the run it names "
-                                  f"({type(e).__name__}: {first}); allowed: a checkpoint.pt written by train") from None
+            raise CheckpointError(
+                f"checkpoint {ckpt_path!r} does not fit the run it names "
+                f"({type(e).__name__}: {first}); "
+                "allowed: a checkpoint.pt written by train"
+            ) from None
         trainer.done = trainer.done and trainer.cycle >= cfg.epochs * cfg.cycles
     else:
         if not args.out:
             raise UsageError("train: --out DIR is required (or --resume DIR)")
-        if os.path.exists(os.path.join(args.out, "checkpoint.pt")) or os.path.exists(os.path.join(args.out, "progress.csv")):
-            raise UsageError(f"train: --out {args.out!r} already holds a run; allowed: a new folder, "
-                             f"or --resume {args.out} to continue it")
+        if os.path.exists(os.path.join(args.out, "checkpoint.pt")) or os.path.exists(
+            os.path.join(args.out, "progress.csv")
+        ):
+            raise UsageError(
+                f"train: --out {args.out!r} already holds a run; "
+                "allowed: a new folder, "
+                f"or --resume {args.out} to continue it"
+            )
         cfg = Config(**given)
         out = args.out
         trainer = Trainer(cfg, out, command=_command_line(args.argv))
     from .precision import warning_if_slow
+
     slow = warning_if_slow(trainer.cfg.update_dtype)
     if slow:
         print(slow, file=sys.stderr)
     from .signals import interrupt_on_signals
+
     interrupt_on_signals()
     try:
         rows = trainer.train(progress=not args.quiet)
     except KeyboardInterrupt:
-        print(f"interrupted: the last checkpoint is in {out}; continue with "
-              f"`python -m acder_lite train --resume {out}`", file=sys.stderr)
+        print(
+            f"interrupted: the last checkpoint is in {out}; continue with "
+            f"`python -m acder_lite train --resume {out}`",
+            file=sys.stderr,
+        )
         return 130
     last = rows[-1] if rows else {}
-    print(f"done: {out} epochs={trainer.cycle / cfg.cycles:g} episodes={trainer.episodes} "
-          f"test_success={last.get('test_success', float('nan')):.3f}")
+    print(
+        f"done: {out} epochs={trainer.cycle / cfg.cycles:g} "
+        f"episodes={trainer.episodes} "
+        f"test_success={last.get('test_success', float('nan')):.3f}"
+    )
     return 0
 
 
@@ -121,31 +167,51 @@ def cmd_eval(args) -> int:
     from . import envs as E
     from .io import check_policy_fits, load_torch
     from .rollout import Policy, run_episodes
+
     if args.episodes < 1:
-        raise UsageError(f"eval: --episodes {args.episodes} is not allowed: an integer >= 1")
-    ckpt = load_torch(args.checkpoint)  # runs nothing from the file; checks the policy's keys and shapes
+        raise UsageError(
+            f"eval: --episodes {args.episodes} is not allowed: an integer >= 1"
+        )
+    # runs nothing from the file; checks the policy's keys and shapes
+    ckpt = load_torch(args.checkpoint)
     pol = ckpt["policy"]
     env_id = args.env or pol["env"]
     if env_id != pol["env"]:
-        raise CheckpointError(f"checkpoint {args.checkpoint!r} was trained on {pol['env']}, not {env_id}; "
-                              f"allowed: --env {pol['env']}")
+        raise CheckpointError(
+            f"checkpoint {args.checkpoint!r} was trained on {pol['env']}, "
+            f"not {env_id}; "
+            f"allowed: --env {pol['env']}"
+        )
     if env_id not in E.ENV_IDS:
-        raise CheckpointError(f"checkpoint {args.checkpoint!r} names env {env_id!r}; allowed: one of "
-                              f"{', '.join(E.ENV_IDS)}")
+        raise CheckpointError(
+            f"checkpoint {args.checkpoint!r} names env {env_id!r}; allowed: one of "
+            f"{', '.join(E.ENV_IDS)}"
+        )
     policy = Policy.from_state_dict(pol)
-    env = E.make_env(env_id, seed=args.seed)
+    from .observations import policy_obs
+
+    # the set it was trained on
+    env = E.make_env(env_id, seed=args.seed, obs=policy_obs(pol))
     first = env._get_obs()
-    check_policy_fits(pol, args.checkpoint, first["observation"].size, first["desired_goal"].size,
-                      env.action_space.shape[0])
+    check_policy_fits(
+        pol,
+        args.checkpoint,
+        first["observation"].size,
+        first["desired_goal"].size,
+        env.action_space.shape[0],
+    )
     T = E.horizon(env_id)
     succ = [run_episodes([env], policy, T)["success"][0] for _ in range(args.episodes)]
-    print(f"eval: env={env_id} method={pol['method']} episodes={args.episodes} "
-          f"success_rate={float(np.mean(succ)):.3f}")
+    print(
+        f"eval: env={env_id} method={pol['method']} episodes={args.episodes} "
+        f"success_rate={float(np.mean(succ)):.3f}"
+    )
     return 0
 
 
 def cmd_bench(args) -> int:
     from .bench import run_bench
+
     return run_bench(args)
 
 
@@ -155,32 +221,66 @@ def build_parser() -> argparse.ArgumentParser:
 
     t = sub.add_parser("train", help="train one (env, method, seed)")
     add_config_options(t)
-    t.add_argument("--out", help="run folder: progress.csv, config.json, checkpoint.pt, policy.pt")
-    t.add_argument("--resume", metavar="DIR", help="continue the run in DIR from its last checkpoint")
+    t.add_argument(
+        "--out", help="run folder: progress.csv, config.json, checkpoint.pt, policy.pt"
+    )
+    t.add_argument(
+        "--resume",
+        metavar="DIR",
+        help="continue the run in DIR from its last checkpoint",
+    )
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_train)
 
     e = sub.add_parser("eval", help="success rate of a trained policy")
     e.add_argument("--checkpoint", required=True, help="checkpoint.pt or policy.pt")
     e.add_argument("--episodes", type=int, default=10)
-    e.add_argument("--env", default=None, help="must match the checkpoint's env (default: the checkpoint's)")
+    e.add_argument(
+        "--env",
+        default=None,
+        help="must match the checkpoint's env (default: the checkpoint's)",
+    )
     e.add_argument("--seed", type=int, default=12345)
     e.set_defaults(func=cmd_eval)
 
-    b = sub.add_parser("bench", help="time simulation and training per episode (paper protocol)")
+    b = sub.add_parser(
+        "bench", help="time simulation and training per episode (paper protocol)"
+    )
     b.add_argument("--env", default="FetchPush-v4")
     b.add_argument("--method", default="her")
     b.add_argument("--workers", type=int, default=4)
-    b.add_argument("--cycles", type=int, default=6,
-                   help="timed cycles after one warm-up cycle (that many of each precision with --update-dtype both)")
+    b.add_argument(
+        "--cycles",
+        type=int,
+        default=6,
+        help="timed cycles after one warm-up cycle "
+        "(that many of each precision with --update-dtype both)",
+    )
     b.add_argument("--threads", type=int, default=2)
-    b.add_argument("--update-dtype", default="auto", choices=["auto", "float32", "bfloat16", "both"],
-                   help="precision of the gradient step (auto: as train picks it on this CPU); 'both' "
-                        "times the two in one run, with their ratio")
+    b.add_argument(
+        "--update-dtype",
+        default="auto",
+        choices=["auto", "float32", "bfloat16", "both"],
+        help="precision of the gradient step (auto: as train picks it on this CPU); "
+        "'both' times the two in one run, with their ratio",
+    )
+    b.add_argument(
+        "--device",
+        default="auto",
+        choices=["auto", "cpu", "cuda"],
+        help="where the networks and the update run (auto: CUDA if any)",
+    )
     b.set_defaults(func=cmd_bench)
 
-    from . import diagnose, sweep, table
-    for name, mod in (("sweep", sweep), ("table", table), ("diagnose", diagnose)):
+    from . import diagnose, export, robust, sweep, table
+
+    for name, mod in (
+        ("sweep", sweep),
+        ("table", table),
+        ("diagnose", diagnose),
+        ("robust", robust),
+        ("export", export),
+    ):
         s = sub.add_parser(name, help=mod.__doc__.strip().splitlines()[0])
         mod.add_arguments(s)
         s.set_defaults(func=mod.run)
@@ -199,7 +299,7 @@ def main(argv: list[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:
-        # the reader went away (`table | head`): stop quietly, and keep Python's own flush at exit
-        # from failing again on the closed pipe
+        # the reader went away (`table | head`): stop quietly, and keep Python's own
+        # flush at exit from failing again on the closed pipe
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141

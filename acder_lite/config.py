@@ -1,51 +1,139 @@
 """All settings of a run in one dataclass, the method table, and per-task presets.
 
-A method is a set of switches on the one trainer (DESIGN.md, "Data flow"): `METHODS` maps each
-`--method` name to those switches. Every decision the paper leaves open is a field here, with the
-default DESIGN.md fixes.
+A method is a set of switches on the one trainer (DESIGN.md, "Data flow"): `METHODS`
+maps each `--method` name to those switches. Every decision the paper leaves open is a
+field here, with the default DESIGN.md fixes.
 """
+
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field, fields
 
-ENV_IDS = ("FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4", "FetchSlide-v4", "FetchPushMultiStep-v0")
-"""The goal-based Fetch tasks this package trains on (gymnasium-robotics 1.4.2, `-v4` ids), and the
-paper's multi-step task in our reading, two blocks with a target each (`acder_lite.multistep`)."""
+ENV_IDS = (
+    "FetchReach-v4",
+    "FetchPush-v4",
+    "FetchPickAndPlace-v4",
+    "FetchSlide-v4",
+    "FetchPushMultiStep-v0",
+)
+"""The goal-based Fetch tasks this package trains on (gymnasium-robotics 1.4.2, `-v4`
+ids), and the paper's multi-step task in our reading, two blocks with a target each
+(`acder_lite.multistep`)."""
 
-OBJECT_ENVS = ("FetchPush-v4", "FetchPickAndPlace-v4", "FetchSlide-v4", "FetchPushMultiStep-v0")
+OBJECT_ENVS = (
+    "FetchPush-v4",
+    "FetchPickAndPlace-v4",
+    "FetchSlide-v4",
+    "FetchPushMultiStep-v0",
+)
 """Tasks with an object (EBP's energy is defined on the object, so it needs one)."""
 
-# method -> switches. her: HER relabelling; curiosity: none | sicm | icm (the module trained on each
-# minibatch); curiosity_reward: r_i is added to the reward; goal_factor: Eq. 5-6; start_states:
-# dynamic initial-state selection (Eq. 9), ranked by S-ICM's r_i; priority: none | per | ebp.
-# Ablation "without curiosity" (Fig. 5): S-ICM still ranks the start-state candidates (section IV-B
-# needs its r_i), but r_i leaves the reward. Without S-ICM no candidate could be chosen, and the
-# ablation would silently lose its start states too.
+# method -> switches. her: HER relabelling; curiosity: none | sicm | icm (the module
+# trained on each minibatch); curiosity_reward: r_i is added to the reward; goal_factor:
+# Eq. 5-6; start_states: dynamic initial-state selection (Eq. 9), ranked by S-ICM's r_i;
+# priority: none | per | ebp. Ablation "without curiosity" (Fig. 5): S-ICM still ranks
+# the start-state candidates (section IV-B needs its r_i), but r_i leaves the reward.
+# Without S-ICM no candidate could be chosen, and the ablation would silently lose its
+# start states too.
 # The critic's target clip is not a switch of a method but a setting of every run
 # (`Config.target_clip`): protocol v2 gives every method Baselines' [-1/(1-gamma), 0].
 METHODS: dict[str, dict] = {
-    "ddpg": dict(her=False, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none"),
-    "her": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="none"),
-    "her-icm": dict(her=True, curiosity="icm", curiosity_reward=True, goal_factor=False, start_states=False, priority="none"),
-    "her-per": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="per"),
-    "her-ebp": dict(her=True, curiosity="none", curiosity_reward=False, goal_factor=False, start_states=False, priority="ebp"),
-    "acder": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=True, priority="none"),
-    "acder-no-curiosity": dict(her=True, curiosity="sicm", curiosity_reward=False, goal_factor=True, start_states=True, priority="none"),
-    "acder-no-goal-factor": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=False, start_states=True, priority="none"),
-    "acder-no-start-states": dict(her=True, curiosity="sicm", curiosity_reward=True, goal_factor=True, start_states=False, priority="none"),
+    "ddpg": dict(
+        her=False,
+        curiosity="none",
+        curiosity_reward=False,
+        goal_factor=False,
+        start_states=False,
+        priority="none",
+    ),
+    "her": dict(
+        her=True,
+        curiosity="none",
+        curiosity_reward=False,
+        goal_factor=False,
+        start_states=False,
+        priority="none",
+    ),
+    "her-icm": dict(
+        her=True,
+        curiosity="icm",
+        curiosity_reward=True,
+        goal_factor=False,
+        start_states=False,
+        priority="none",
+    ),
+    "her-per": dict(
+        her=True,
+        curiosity="none",
+        curiosity_reward=False,
+        goal_factor=False,
+        start_states=False,
+        priority="per",
+    ),
+    "her-ebp": dict(
+        her=True,
+        curiosity="none",
+        curiosity_reward=False,
+        goal_factor=False,
+        start_states=False,
+        priority="ebp",
+    ),
+    "acder": dict(
+        her=True,
+        curiosity="sicm",
+        curiosity_reward=True,
+        goal_factor=True,
+        start_states=True,
+        priority="none",
+    ),
+    "acder-no-curiosity": dict(
+        her=True,
+        curiosity="sicm",
+        curiosity_reward=False,
+        goal_factor=True,
+        start_states=True,
+        priority="none",
+    ),
+    "acder-no-goal-factor": dict(
+        her=True,
+        curiosity="sicm",
+        curiosity_reward=True,
+        goal_factor=False,
+        start_states=True,
+        priority="none",
+    ),
+    "acder-no-start-states": dict(
+        her=True,
+        curiosity="sicm",
+        curiosity_reward=True,
+        goal_factor=True,
+        start_states=False,
+        priority="none",
+    ),
 }
 
-# Paper, section V-B: eta = 0.05 on Reach, 0.8 elsewhere; alpha0 = 0.8 (0.7 on the multi-step task);
-# 25 / 50 / 100 epochs. Table I: Reach counts episodes to 100% test success, Push and Pick&Place to
-# 95%. Baselines' experiment/config.py: FetchReach's epochs have 10 cycles, the others 50.
+# Paper, section V-B: eta = 0.05 on Reach, 0.8 elsewhere; alpha0 = 0.8 (0.7 on the
+# multi-step task); 25 / 50 / 100 epochs. Table I: Reach counts episodes to 100% test
+# success, Push and Pick&Place to 95%. Baselines' experiment/config.py: FetchReach's
+# epochs have 10 cycles, the others 50.
 TASK_PRESETS: dict[str, dict] = {
-    "FetchReach-v4": dict(eta=0.05, alpha0=0.8, epochs=25, cycles=10, success_threshold=1.0),
-    "FetchPush-v4": dict(eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95),
-    "FetchPickAndPlace-v4": dict(eta=0.8, alpha0=0.8, epochs=100, cycles=50, success_threshold=0.95),
-    "FetchSlide-v4": dict(eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95),
+    "FetchReach-v4": dict(
+        eta=0.05, alpha0=0.8, epochs=25, cycles=10, success_threshold=1.0
+    ),
+    "FetchPush-v4": dict(
+        eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95
+    ),
+    "FetchPickAndPlace-v4": dict(
+        eta=0.8, alpha0=0.8, epochs=100, cycles=50, success_threshold=0.95
+    ),
+    "FetchSlide-v4": dict(
+        eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95
+    ),
     # the multi-step task (section V-B: alpha0 = 0.7, 400 epochs; Table I's 95% rule)
-    "FetchPushMultiStep-v0": dict(eta=0.8, alpha0=0.7, epochs=400, cycles=50, success_threshold=0.95),
+    "FetchPushMultiStep-v0": dict(
+        eta=0.8, alpha0=0.7, epochs=400, cycles=50, success_threshold=0.95
+    ),
 }
 
 PRESET_FIELDS = ("eta", "alpha0", "epochs", "cycles", "success_threshold")
@@ -55,16 +143,24 @@ TARGET_CLIPS = ("baselines", "wide")
 INITS = ("xavier", "torch")
 BUFFER_SCOPES = ("worker", "shared")
 SICM_INPUTS = ("normalised", "raw")
+OBS_SETS = ("full", "simplified")
+"""Allowed `Config.obs` values (`acder_lite.observations`)."""
 
-# Protocol v1 (experiments/protocol-v1/): what a config.json written before a field existed meant.
-# `Config.from_dict` fills these in, so an old run's recorded config still reproduces it.
-LEGACY_VALUES = dict(init="torch", buffer_scope="shared", sicm_input="normalised", update_dtype="float32")
+# Protocol v1 (experiments/protocol-v1/): what a config.json written before a field
+# existed meant. `Config.from_dict` fills these in, so an old run's recorded config
+# still reproduces it.
+LEGACY_VALUES = dict(
+    init="torch", buffer_scope="shared", sicm_input="normalised", update_dtype="float32"
+)
 LEGACY_METHODS = {"acder-baselines-clip": ("acder", "baselines")}
-"""Methods of protocol v1 that are now a method plus a setting: name -> (method, target_clip)."""
+"""Methods of protocol v1 that are now a method plus a setting:
+name -> (method, target_clip)."""
 
 
 UPDATE_DTYPES = ("auto", "float32", "bfloat16")
 """Allowed `Config.update_dtype` values."""
+DEVICES = ("auto", "cpu", "cuda")
+"""Allowed `Config.device` values."""
 
 
 class ConfigError(ValueError):
@@ -77,37 +173,49 @@ class Config:
     env: str = "FetchReach-v4"
     """Gymnasium id of the task; one of `ENV_IDS`."""
     method: str = "her"
-    """A row of the method table (`METHODS`): ddpg, her, her-icm, her-per, her-ebp, acder and its
-    ablations (protocol v1's acder-baselines-clip is acder with today's default target clip)."""
+    """A row of the method table (`METHODS`): ddpg, her, her-icm, her-per, her-ebp,
+    acder and its ablations (protocol v1's acder-baselines-clip is acder with today's
+    default target clip)."""
     seed: int = 0
-    """Seeds numpy, torch and every env (worker i gets seed*1000+i, test envs seed*1000+500+i)."""
+    """Seeds numpy, torch and every env
+    (worker i gets seed*1000+i, test envs seed*1000+500+i)."""
+    obs: str = "full"
+    """What the policy (and S-ICM) sees of the observation: 'full' (the Fetch vector:
+    positions, rotations, velocities) or 'simplified' (paper, section V-E, for the UR5:
+    gripper position, object positions, object-minus-gripper positions, finger states;
+    no velocities or rotations: `acder_lite.observations`). A config.json without the
+    field is 'full', as every earlier run."""
 
-    # --- the paper protocol (Baselines' DDPG+HER, 4 MPI workers emulated in one process)
+    # --- the paper protocol
+    # (Baselines' DDPG+HER, 4 MPI workers emulated in one process)
     workers: int = 4
     """W envs stepped together; stands in for the paper's W MPI workers."""
     epochs: int | None = None
-    """Training epochs; the run's budget. None: the task preset (paper: Reach 25, Push 50,
-    Pick&Place 100)."""
+    """Training epochs; the run's budget.
+    None: the task preset (paper: Reach 25, Push 50, Pick&Place 100)."""
     cycles: int | None = None
-    """Cycles per epoch. None: the task preset (Baselines: 10 on FetchReach, 50 elsewhere)."""
+    """Cycles per epoch.
+    None: the task preset (Baselines: 10 on FetchReach, 50 elsewhere)."""
     episodes_per_cycle: int = 2
     """Episodes each worker collects per cycle (Baselines' rollout_batch_size)."""
     updates_per_cycle: int = 40
     """Gradient steps per cycle (Baselines' n_batches)."""
     batch_size: int = 256
-    """Minibatch per worker; one update uses batch_size*workers transitions (gradients averaged)."""
+    """Minibatch per worker;
+    one update uses batch_size*workers transitions (gradients averaged)."""
     test_episodes: int = 20
-    """Deterministic test episodes per worker after each epoch (Baselines: n_test_rollouts=10 x
-    rollout_batch_size=2; protocol v1 used 10)."""
+    """Deterministic test episodes per worker after each epoch (Baselines:
+    n_test_rollouts=10 x rollout_batch_size=2; protocol v1 used 10)."""
     eval_every_cycles: int = 0
-    """Also evaluate every N cycles (0: only at the end of each epoch). Table I suggests 5."""
+    """Also evaluate every N cycles (0: only at the end of each epoch).
+    Table I suggests 5."""
     buffer_size: int = 1_000_000
-    """Replay capacity in transitions (episodes of T steps are stored whole), per worker when
-    `buffer_scope` is 'worker'."""
+    """Replay capacity in transitions (episodes of T steps are stored whole), per worker
+    when `buffer_scope` is 'worker'."""
     buffer_scope: str = "worker"
-    """'worker': the buffer holds buffer_size transitions per worker, as each Baselines MPI worker
-    keeps its own 10^6 (one shared buffer of W x buffer_size, sampled uniformly); 'shared':
-    buffer_size in all (protocol v1)."""
+    """'worker': the buffer holds buffer_size transitions per worker, as each Baselines
+    MPI worker keeps its own 10^6 (one shared buffer of W x buffer_size, sampled
+    uniformly); 'shared': buffer_size in all (protocol v1)."""
 
     # --- DDPG (Baselines' defaults)
     hidden: int = 256
@@ -115,12 +223,12 @@ class Config:
     layers: int = 3
     """Hidden layers of actor and critic."""
     init: str = "xavier"
-    """Weights of every network: 'xavier' (Baselines' nn(): Xavier-uniform weights, zero biases)
-    or 'torch' (PyTorch's nn.Linear default, protocol v1)."""
+    """Weights of every network: 'xavier' (Baselines' nn(): Xavier-uniform weights, zero
+    biases) or 'torch' (PyTorch's nn.Linear default, protocol v1)."""
     target_clip: str = "baselines"
     """Range of the critic's target y: 'baselines' ([-1/(1-gamma), 0], Baselines'
-    clip_pos_returns, for every method) or 'wide' ([-lambda_max, r_i_max] / (1 - gamma), the
-    range ACDER's shaped rewards can reach: protocol v1's ACDER)."""
+    clip_pos_returns, for every method) or 'wide' ([-lambda_max, r_i_max] / (1 - gamma),
+    the range ACDER's shaped rewards can reach: protocol v1's ACDER)."""
     lr_actor: float = 1e-3
     """Adam learning rate of the actor."""
     lr_critic: float = 1e-3
@@ -144,24 +252,29 @@ class Config:
 
     # --- HER
     replay_k: int = 4
-    """HER 'future' strategy: relabel a share 1 - 1/(1+k) of each minibatch (0.8 for k=4)."""
+    """HER 'future' strategy:
+    relabel a share 1 - 1/(1+k) of each minibatch (0.8 for k=4)."""
 
     # --- ACDER (section IV) and baselines' own knobs
     eta: float | None = None
-    """Eq. 4 clip of the intrinsic reward, in (0, 1). None: the task preset (0.05 Reach, 0.8 else)."""
+    """Eq. 4 clip of the intrinsic reward, in (0, 1).
+    None: the task preset (0.05 Reach, 0.8 else)."""
     alpha0: float | None = None
     """Eq. 9 initial ratio of novel starts, in [0, 1]. None: the task preset (0.8)."""
     sicm_hidden: int = 256
-    """Hidden units of S-ICM's forward model (paper: one hidden layer of 256; 3 layers in all)."""
+    """Hidden units of S-ICM's forward model
+    (paper: one hidden layer of 256; 3 layers in all)."""
     sicm_input: str = "normalised"
-    """What S-ICM sees and predicts (Eq. 7-8): 'normalised' (o, g), the policy's inputs, or 'raw'
-    (o, g), clipped to clip_obs only. The paper does not say; experiments/readings/ measures both."""
+    """What S-ICM sees and predicts (Eq. 7-8): 'normalised' (o, g), the policy's inputs,
+    or 'raw' (o, g), clipped to clip_obs only. The paper does not say;
+    experiments/readings/ measures both."""
     sicm_lr: float = 1e-3
     """Adam learning rate of the forward model (S-ICM or ICM)."""
     pool_size: int = 50
     """How many of the most recent candidate start states are kept."""
     restart_goal: str = "resample"
-    """Goal of an episode restarted from a stored state: 'resample' (fresh) or 'episode' (stored)."""
+    """Goal of an episode restarted from a stored state:
+    'resample' (fresh) or 'episode' (stored)."""
     icm_feature_dim: int = 64
     """ICM (Pathak et al.): size of the learned feature embedding."""
     icm_beta: float = 0.2
@@ -169,7 +282,8 @@ class Config:
     per_alpha: float = 0.6
     """PER: priority exponent."""
     per_beta0: float = 0.4
-    """PER: importance-sampling exponent at the start, annealed linearly to 1 over the run."""
+    """PER: importance-sampling exponent at the start,
+    annealed linearly to 1 over the run."""
     per_eps: float = 1e-6
     """PER: added to |TD error| so no priority is zero."""
     ebp_clip_energy: float = 0.5
@@ -183,75 +297,126 @@ class Config:
     threads: int = 2
     """torch intra-op threads (2 uses both cores of this machine)."""
     step_threads: int = 0
-    """Threads stepping the W envs at once in collection and evaluation (MuJoCo releases the GIL).
-    0: `threads` when it is above 1, else one (sequential). The rollout is the same bit for bit
-    either way (`rollout.run_episodes`); only the time differs."""
+    """Threads stepping the W envs at once in collection and evaluation (MuJoCo releases
+    the GIL). 0: `threads` when it is above 1, else one (sequential). The rollout is the
+    same bit for bit either way (`rollout.run_episodes`); only the time differs."""
     update_dtype: str = "auto"
-    """Precision of the actor/critic gradient step: 'auto' (bfloat16 only on a CPU with native
-    bfloat16 matmul, AVX512-BF16 or AMX; float32 elsewhere: `precision.choose_update_dtype`),
-    'float32', or 'bfloat16' (CPU autocast: the matmuls in bf16; weights, gradients, Adam and
-    losses stay fp32). bfloat16 measured 2-3x faster per update with AVX512-BF16 and 17x slower
-    without it (`bench --update-dtype both`); it is a different computation: compare learning
-    curves before mixing its runs with float32 ones. Acting, evaluation and S-ICM stay fp32.
-    `resolve` replaces 'auto' by the choice; config.json records it and why."""
+    """Precision of the actor/critic gradient step: 'auto' (bfloat16 only on a CPU with
+    native bfloat16 matmul, AVX512-BF16 or AMX; float32 elsewhere:
+    `precision.choose_update_dtype`), 'float32', or 'bfloat16' (CPU autocast: the
+    matmuls in bf16; weights, gradients, Adam and losses stay fp32). bfloat16 measured
+    2-3x faster per update with AVX512-BF16 and 17x slower without it
+    (`bench --update-dtype both`); it is a different computation: compare learning
+    curves before mixing its runs with float32 ones. Acting, evaluation and S-ICM stay
+    fp32. `resolve` replaces 'auto' by the choice; config.json records it and why."""
     update_dtype_why: str = ""
-    """Filled by `resolve()`: why update_dtype is what it is (recorded in config.json)."""
+    """Filled by `resolve()`:
+    why update_dtype is what it is (recorded in config.json)."""
+    device: str = "auto"
+    """Where the networks, the normalised minibatches and every gradient step live:
+    'auto' (CUDA where torch sees a device, else the CPU), 'cpu' or 'cuda' (an error
+    without CUDA). Simulation, replay and the numpy rewards stay on the CPU; actions
+    come back once per batched step. `resolve` replaces 'auto' by the choice;
+    config.json records it and why. A resumed run may change it
+    (`--resume DIR --device cpu`); the checkpoint loads onto it."""
+    device_why: str = ""
+    """Filled by `resolve()`: why device is what it is (recorded in config.json)."""
     success_threshold: float | None = None
-    """Test success rate Table I counts episodes to and the stop rule holds. None: the task
-    preset (paper: Reach 1.0, Push and Pick&Place 0.95)."""
+    """Test success rate Table I counts episodes to and the stop rule holds. None: the
+    task preset (paper: Reach 1.0, Push and Pick&Place 0.95)."""
     stop_patience: int = 5
     """The stop rule: end the run once test success >= success_threshold at this many
-    evaluations in a row (with eval_every_cycles=0, epoch evaluations); 0: always run the
-    budget. The mean curve carries a stopped seed's last 5 evaluations forward (`report`)."""
+    evaluations in a row (with eval_every_cycles=0, epoch evaluations); 0: always run
+    the budget. The mean curve carries a stopped seed's last 5 evaluations forward
+    (`report`)."""
     stop_gap_episodes: int = 0
-    """Protocol v1 only: also stop at the first epoch end this many training episodes after the
-    test success first reached success_threshold (0: off)."""
+    """Protocol v1 only: also stop at the first epoch end this many training episodes
+    after the test success first reached success_threshold (0: off)."""
 
     switches: dict = field(default_factory=dict)
     """Filled from `METHODS[method]` by `resolve()`; recorded in config.json."""
 
     def resolve(self) -> "Config":
-        """Validate, then fill presets (eta, alpha0) and the method's switches. Returns self."""
+        """Validate, then fill presets (eta, alpha0) and the method's switches.
+        Returns self."""
         self.validate()
         preset = TASK_PRESETS[self.env]
         for name in PRESET_FIELDS:
             if getattr(self, name) is None:
                 setattr(self, name, preset[name])
         self.switches = dict(METHODS[self.method])
+        from .precision import choose_device, choose_update_dtype
+
+        try:  # also checks that a recorded 'cuda' (a resumed run) is still there
+            device, why = choose_device(self.device)
+        except ValueError as e:
+            raise ConfigError(str(e)) from None
+        if self.device == "auto" or not self.device_why:
+            self.device, self.device_why = device, why
         if self.update_dtype == "auto" or not self.update_dtype_why:
-            from .precision import choose_update_dtype
-            self.update_dtype, self.update_dtype_why = choose_update_dtype(self.update_dtype)
+            self.update_dtype, self.update_dtype_why = choose_update_dtype(
+                self.update_dtype, self.device
+            )
         self.validate()
         return self
 
     @property
     def future_p(self) -> float:
-        return 1.0 - 1.0 / (1.0 + self.replay_k) if self.switches.get("her", True) else 0.0
+        return (
+            1.0 - 1.0 / (1.0 + self.replay_k) if self.switches.get("her", True) else 0.0
+        )
 
     def validate(self) -> None:
-        """Raise ConfigError (one line: field, value, what is allowed) on the first bad field."""
+        """Raise ConfigError (one line: field, value, what is allowed)
+        on the first bad field."""
+
         def bad(name, allowed):
-            raise ConfigError(f"{name}={getattr(self, name)!r} is not allowed: {allowed}")
+            raise ConfigError(
+                f"{name}={getattr(self, name)!r} is not allowed: {allowed}"
+            )
 
         if self.env not in ENV_IDS:
             bad("env", "one of " + ", ".join(ENV_IDS))
         if self.method in LEGACY_METHODS:
             method, clip = LEGACY_METHODS[self.method]
-            raise ConfigError(f"method={self.method!r} is protocol v1's name; allowed: --method {method} "
-                              f"(its target clip, {clip!r}, is today's default)")
+            raise ConfigError(
+                f"method={self.method!r} is protocol v1's name; "
+                f"allowed: --method {method} "
+                f"(its target clip, {clip!r}, is today's default)"
+            )
         if self.method not in METHODS:
             bad("method", "one of " + ", ".join(METHODS))
         if METHODS[self.method]["priority"] == "ebp" and self.env not in OBJECT_ENVS:
-            raise ConfigError(f"method={self.method!r} needs a task with an object; "
-                              f"env={self.env!r} has none (allowed: {', '.join(OBJECT_ENVS)})")
-        for name in ("workers", "epochs", "cycles", "episodes_per_cycle", "batch_size", "hidden",
-                     "layers", "sicm_hidden", "pool_size", "icm_feature_dim", "threads"):
+            raise ConfigError(
+                f"method={self.method!r} needs a task with an object; "
+                f"env={self.env!r} has none (allowed: {', '.join(OBJECT_ENVS)})"
+            )
+        for name in (
+            "workers",
+            "epochs",
+            "cycles",
+            "episodes_per_cycle",
+            "batch_size",
+            "hidden",
+            "layers",
+            "sicm_hidden",
+            "pool_size",
+            "icm_feature_dim",
+            "threads",
+        ):
             if name in PRESET_FIELDS and getattr(self, name) is None:
                 continue
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 bad(name, "an integer >= 1")
-        for name in ("updates_per_cycle", "test_episodes", "eval_every_cycles", "replay_k",
-                     "stop_patience", "stop_gap_episodes", "step_threads"):
+        for name in (
+            "updates_per_cycle",
+            "test_episodes",
+            "eval_every_cycles",
+            "replay_k",
+            "stop_patience",
+            "stop_gap_episodes",
+            "step_threads",
+        ):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
                 bad(name, "an integer >= 0")
         if self.buffer_size < 1000:
@@ -267,12 +432,25 @@ class Config:
                 bad(name, "a number in [0, 1]")
         if self.success_threshold is not None and not 0 < self.success_threshold <= 1:
             bad("success_threshold", "a number in (0, 1]")
-        for name, allowed in (("target_clip", TARGET_CLIPS), ("init", INITS),
-                              ("buffer_scope", BUFFER_SCOPES), ("sicm_input", SICM_INPUTS)):
+        for name, allowed in (
+            ("target_clip", TARGET_CLIPS),
+            ("init", INITS),
+            ("buffer_scope", BUFFER_SCOPES),
+            ("sicm_input", SICM_INPUTS),
+        ):
             if getattr(self, name) not in allowed:
                 bad(name, " or ".join(repr(x) for x in allowed))
-        for name in ("action_l2", "clip_obs", "norm_eps", "norm_clip", "per_eps", "ebp_clip_energy",
-                     "ebp_w_potential", "ebp_w_kinetic", "icm_beta"):
+        for name in (
+            "action_l2",
+            "clip_obs",
+            "norm_eps",
+            "norm_clip",
+            "per_eps",
+            "ebp_clip_energy",
+            "ebp_w_potential",
+            "ebp_w_kinetic",
+            "icm_beta",
+        ):
             if not getattr(self, name) >= 0:
                 bad(name, "a number >= 0")
         if self.eta is not None and not 0 < self.eta < 1:
@@ -283,6 +461,10 @@ class Config:
             bad("restart_goal", "'resample' or 'episode'")
         if self.update_dtype not in UPDATE_DTYPES:
             bad("update_dtype", " or ".join(repr(x) for x in UPDATE_DTYPES))
+        if self.device not in DEVICES:
+            bad("device", " or ".join(repr(x) for x in DEVICES))
+        if self.obs not in OBS_SETS:
+            bad("obs", " or ".join(repr(x) for x in OBS_SETS))
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -294,13 +476,17 @@ class Config:
 
     @classmethod
     def from_dict(cls, d: dict) -> "Config":
-        """A Config from config.json's "config" (or a checkpoint's). A dict written before a
-        field existed (protocol v1) gets the value that run used (`LEGACY_VALUES`)."""
+        """A Config from config.json's "config" (or a checkpoint's). A dict written
+        before a field existed (protocol v1) gets the value that run used
+        (`LEGACY_VALUES`)."""
         d = upgrade_legacy(d)
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(d) - known)
         if unknown:
-            raise ConfigError(f"unknown config field {unknown[0]!r}; allowed: {', '.join(sorted(known))}")
+            raise ConfigError(
+                f"unknown config field {unknown[0]!r}; "
+                f"allowed: {', '.join(sorted(known))}"
+            )
         return cls(**d)
 
 
@@ -324,8 +510,10 @@ def upgrade_legacy(d: dict) -> dict:
 
 
 def fast_mode() -> bool:
-    """True when ACDER_FAST=1 (set by `make test`): budgets shrink, the code path stays the same."""
+    """True when ACDER_FAST=1 (set by `make test`):
+    budgets shrink, the code path stays the same."""
     import os
+
     return os.environ.get("ACDER_FAST", "0") not in ("", "0")
 
 
@@ -333,10 +521,15 @@ def field_docs() -> dict[str, str]:
     """The docstring under each Config field (used for the CLI's --help)."""
     import ast
     import inspect
+
     tree = ast.parse(inspect.getsource(Config))
     body = tree.body[0].body
     docs = {}
     for a, b in zip(body, body[1:]):
-        if isinstance(a, ast.AnnAssign) and isinstance(b, ast.Expr) and isinstance(getattr(b, "value", None), ast.Constant):
+        if (
+            isinstance(a, ast.AnnAssign)
+            and isinstance(b, ast.Expr)
+            and isinstance(getattr(b, "value", None), ast.Constant)
+        ):
             docs[a.target.id] = " ".join(str(b.value.value).split())
     return docs

@@ -1,8 +1,9 @@
 """DDPG as in Baselines' HER: one function per loss, and the agent that steps both.
 
-Each loss takes a batch of tensors (`x` = normalised [o, g], `x2` = normalised [o2, g], `u`, `r`)
-so a test can call it on a fixed batch.
+Each loss takes a batch of tensors (`x` = normalised [o, g], `x2` = normalised [o2, g],
+`u`, `r`) so a test can call it on a fixed batch.
 """
+
 from __future__ import annotations
 
 import copy
@@ -12,13 +13,22 @@ import torch
 from .core import Actor, Critic
 
 
-def compute_loss_q(critic, actor_targ, critic_targ, batch: dict, gamma: float,
-                   clip_return: tuple[float, float], weights: torch.Tensor | None = None):
-    """Eq. 1-2: L = mean_i w_i (y_i - Q(s_i, a_i))^2 with y_i = r_i + gamma Q'(s_{i+1}, pi'(s_{i+1})).
+def compute_loss_q(
+    critic,
+    actor_targ,
+    critic_targ,
+    batch: dict,
+    gamma: float,
+    clip_return: tuple[float, float],
+    weights: torch.Tensor | None = None,
+):
+    """Eq. 1-2: L = mean_i w_i (y_i - Q(s_i, a_i))^2
+    with y_i = r_i + gamma Q'(s_{i+1}, pi'(s_{i+1})).
 
-    y is clipped to `clip_return` (Baselines: [-1/(1-gamma), 0]; wider with ACDER's rewards, see
-    DESIGN.md). No terminal masking: Fetch episodes only end by the time limit. `weights` are PER's
-    importance weights (None: all 1). Returns (loss, td_error) with td_error = y - Q, detached.
+    y is clipped to `clip_return` (Baselines' [-1/(1-gamma), 0] for every method;
+    `target_clip="wide"` widens it for curiosity's rewards, departure 13). No terminal
+    masking: Fetch episodes only end by the time limit. `weights` are PER's importance
+    weights (None: all 1). Returns (loss, td_error) with td_error = y - Q, detached.
     """
     with torch.no_grad():
         q_next = critic_targ(batch["x2"], actor_targ(batch["x2"]))
@@ -31,47 +41,74 @@ def compute_loss_q(critic, actor_targ, critic_targ, batch: dict, gamma: float,
 
 
 def compute_loss_pi(actor, critic, batch: dict, action_l2: float):
-    """Eq. 3 as a loss: -mean Q(s, pi(s)) + action_l2 * mean (pi(s)/max_u)^2 (Baselines' penalty).
+    """Eq. 3 as a loss: -mean Q(s, pi(s)) + action_l2 * mean (pi(s)/max_u)^2
+    (Baselines' penalty).
 
-    Trap: the critic's weights must not be trained by this loss; the caller freezes them.
+    Trap: the critic's weights must not be trained by this loss;
+    the caller freezes them.
     """
     pi = actor(batch["x"])
     return -critic(batch["x"], pi).mean() + action_l2 * (pi / actor.max_u).pow(2).mean()
 
 
 class DDPG:
-    """Actor, critic, their targets and Adam optimisers."""
+    """Actor, critic, their targets and Adam optimisers, on `device` (None: the CPU).
 
-    def __init__(self, in_dim: int, act_dim: int, cfg, max_u: float = 1.0):
+    The networks are initialised on the CPU and then moved, so a seed gives the same
+    weights on every device; `update`'s batches must be on it (`Trainer.batch_tensors`).
+    """
+
+    def __init__(self, in_dim: int, act_dim: int, cfg, max_u: float = 1.0, device=None):
         self.cfg = cfg
-        self.actor = Actor(in_dim, act_dim, cfg.hidden, cfg.layers, max_u, cfg.init)
-        self.critic = Critic(in_dim, act_dim, cfg.hidden, cfg.layers, max_u, cfg.init)
+        self.device = torch.device("cpu" if device is None else device)
+        # .to(cpu) is a no-op: the CPU path holds the very tensors it always held
+        shape = (in_dim, act_dim, cfg.hidden, cfg.layers, max_u, cfg.init)
+        self.actor = Actor(*shape).to(self.device)
+        self.critic = Critic(*shape).to(self.device)
         self.actor_targ = copy.deepcopy(self.actor).requires_grad_(False)
         self.critic_targ = copy.deepcopy(self.critic).requires_grad_(False)
-        # fused: one kernel per optimiser step instead of ~10 small ops per tensor (measured ~10%
-        # of an update step on this CPU).
-        self.pi_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr_actor, fused=True)
-        self.q_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr_critic, fused=True)
+        # fused: one kernel per optimiser step instead of ~10 small ops per tensor
+        # (measured ~10% of an update step on this CPU).
+        self.pi_opt = torch.optim.Adam(
+            self.actor.parameters(), lr=cfg.lr_actor, fused=True
+        )
+        self.q_opt = torch.optim.Adam(
+            self.critic.parameters(), lr=cfg.lr_critic, fused=True
+        )
 
     def _autocast(self):
-        """bf16 matmuls for the forward passes when `cfg.update_dtype` is 'bfloat16' (backward
-        follows the forward's dtypes; the fp32 weights and their gradients are untouched)."""
-        return torch.autocast("cpu", dtype=torch.bfloat16,
-                              enabled=self.cfg.update_dtype == "bfloat16")
+        """bf16 matmuls for the forward passes when `cfg.update_dtype` is 'bfloat16'
+        (backward follows the forward's dtypes; the fp32 weights and their gradients are
+        untouched)."""
+        return torch.autocast(
+            self.device.type,
+            dtype=torch.bfloat16,
+            enabled=self.cfg.update_dtype == "bfloat16",
+        )
 
     def update(self, batch: dict, clip_return, weights=None) -> dict:
-        """One gradient step of critic and actor, both computed with the critic before its step
-        (as Baselines does in one session run). Returns losses and |TD| for PER."""
+        """One gradient step of critic and actor, both computed with the critic before
+        its step (as Baselines does in one session run). Returns losses and |TD| for
+        PER."""
         with self._autocast():
-            q_loss, td = compute_loss_q(self.critic, self.actor_targ, self.critic_targ, batch,
-                                        self.cfg.gamma, clip_return, weights)
+            q_loss, td = compute_loss_q(
+                self.critic,
+                self.actor_targ,
+                self.critic_targ,
+                batch,
+                self.cfg.gamma,
+                clip_return,
+                weights,
+            )
         self.q_opt.zero_grad(set_to_none=True)
         q_loss.backward()
-        # Freeze the critic for the actor's loss: skips its weight gradients (a third of its
-        # backward pass) and keeps the critic's .grad from the critic loss alone.
+        # Freeze the critic for the actor's loss: skips its weight gradients (a third of
+        # its backward pass) and keeps the critic's .grad from the critic loss alone.
         self.critic.requires_grad_(False)
         with self._autocast():
-            pi_loss = compute_loss_pi(self.actor, self.critic, batch, self.cfg.action_l2)
+            pi_loss = compute_loss_pi(
+                self.actor, self.critic, batch, self.cfg.action_l2
+            )
         self.pi_opt.zero_grad(set_to_none=True)
         pi_loss.backward()
         self.critic.requires_grad_(True)
@@ -83,14 +120,22 @@ class DDPG:
     def update_targets(self) -> None:
         """Polyak averaging: target <- polyak * target + (1 - polyak) * main."""
         p = self.cfg.polyak
-        for net, targ in ((self.actor, self.actor_targ), (self.critic, self.critic_targ)):
+        for net, targ in (
+            (self.actor, self.actor_targ),
+            (self.critic, self.critic_targ),
+        ):
             for a, b in zip(targ.parameters(), net.parameters()):
                 a.mul_(p).add_(b, alpha=1 - p)
 
     def state_dict(self) -> dict:
-        return dict(actor=self.actor.state_dict(), critic=self.critic.state_dict(),
-                    actor_targ=self.actor_targ.state_dict(), critic_targ=self.critic_targ.state_dict(),
-                    pi_opt=self.pi_opt.state_dict(), q_opt=self.q_opt.state_dict())
+        return dict(
+            actor=self.actor.state_dict(),
+            critic=self.critic.state_dict(),
+            actor_targ=self.actor_targ.state_dict(),
+            critic_targ=self.critic_targ.state_dict(),
+            pi_opt=self.pi_opt.state_dict(),
+            q_opt=self.q_opt.state_dict(),
+        )
 
     def load_state_dict(self, d: dict) -> None:
         for k in ("actor", "critic", "actor_targ", "critic_targ", "pi_opt", "q_opt"):

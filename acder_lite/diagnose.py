@@ -1,25 +1,31 @@
-"""diagnose a run: what S-ICM finds novel, what the start pool holds, how the policy moves the object
+"""diagnose a run: S-ICM's novelty, the start pool, how the policy moves the object
 
-`python -m acder_lite diagnose results/FetchPush-v4/acder/seed1` loads the run's `checkpoint.pt`,
-draws minibatches from its replay buffer exactly as training does, and reports
+`python -m acder_lite diagnose results/FetchPush-v4/acder/seed1` loads the run's
+`checkpoint.pt`, draws minibatches from its replay buffer exactly as training does, and
+reports
 
-- **curiosity**: how the S-ICM error 1/2 ||F(s, a) - s'||^2 (Eq. 4 before the clip) is spread, the
-  share of rows at the clip eta, overall and among rows of successful episodes (the rows the
-  start-state selection chooses from), and which state entries carry the error;
+- **curiosity**: how the S-ICM error 1/2 ||F(s, a) - s'||^2 (Eq. 4 before the clip) is
+  spread, the share of rows at the clip eta, overall and among rows of successful
+  episodes (the rows the start-state selection chooses from), and which state entries
+  carry the error;
 - **pool**: where the stored start states put the gripper and the object;
-- **motion** (tasks with an object; needs only the committed `policy.pt`): how the trained policy
-  moves the object on test episodes: its speed, its spin, and its path against the straight line.
+- **motion** (tasks with an object; needs only the committed `policy.pt`): how the
+  trained policy moves the object on test episodes: its speed, its spin, and its path
+  against the straight line.
 
-On the multi-step push (FetchPushMultiStep-v0: two blocks, 6-D goals) the state names are the 40
-observation entries (object0_..., object1_...) and goal0.x ... goal1.z; the pool reports each block
-(the gripper's distance to it, its distance to its own target) and the motion is per block. The
-one-object tasks report exactly the numbers they always did.
+On the multi-step push (FetchPushMultiStep-v0: two blocks, 6-D goals) the state names
+are the 40 observation entries (object0_..., object1_...) and goal0.x ... goal1.z; the
+pool reports each block (the gripper's distance to it, its distance to its own target)
+and the motion is per block. The one-object tasks report exactly the numbers they always
+did.
 
-Nothing is trained and nothing in the run folder is written, except the `--json` file if asked.
-Two traps it exists to show: when many rows sit at the clip, "the largest intrinsic reward" is a
-tie and the candidate is in effect any clipped row of a successful episode; and a candidate is a
-state *inside* a successful episode, not its end, so the gripper may be anywhere.
+Nothing is trained and nothing in the run folder is written, except the `--json` file if
+asked. Two traps it exists to show: when many rows sit at the clip, "the largest
+intrinsic reward" is a tie and the candidate is in effect any clipped row of a
+successful episode; and a candidate is a state *inside* a successful episode, not its
+end, so the gripper may be anywhere.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,39 +41,51 @@ from .io import CheckpointError, check_policy_fits, load_torch, write_json
 
 
 def state_names(trainer) -> list[str]:
-    """Names of the S-ICM state s = (o, g): the observation entries, then the goal's (goal.x/y/z,
-    or goal0.x ... goal1.z for the two blocks' targets of FetchPushMultiStep-v0)."""
+    """Names of the S-ICM state s = (o, g): the observation entries, then the goal's
+    (goal.x/y/z, or goal0.x ... goal1.z for the two blocks' targets of
+    FetchPushMultiStep-v0)."""
     env = trainer.envs[0]
     names = E.obs_names(env) + E.goal_names(env)
     size = trainer.dims["o"] + trainer.dims["g"]
     if len(names) != size:  # a changed layout must not be mislabelled silently
-        raise RuntimeError(f"state_names: {len(names)} names for a state of {size} entries")
+        raise RuntimeError(
+            f"state_names: {len(names)} names for a state of {size} entries"
+        )
     return names
 
 
 def n_objects(env) -> int:
-    """Objects on the table: 0 (Reach), 1 (Push, Pick&Place, Slide), 2 (FetchPushMultiStep-v0)."""
+    """Objects on the table: 0 (Reach), 1 (Push, Pick&Place, Slide), 2
+    (FetchPushMultiStep-v0)."""
     return int(getattr(env, "n_objects", 1)) if env.has_object else 0
 
 
 def object_fields(env, field: str) -> list[slice]:
-    """One slice of the observation per object for an object field (`pos`, `velr`, ...), by name:
-    object_velr.x..z on the one-object tasks, object0_velr.x..z, object1_velr.x..z on the multi-step
-    push (`envs.obs_names`)."""
+    """One slice of the observation per object for an object field (`pos`, `velr`, ...),
+    by name: object_velr.x..z on the one-object tasks, object0_velr.x..z,
+    object1_velr.x..z on the multi-step push (`envs.obs_names`)."""
     names = E.obs_names(env)
     k = n_objects(env)
     prefixes = ["object"] if k == 1 else [f"object{i}" for i in range(k)]
-    return [slice(names.index(f"{p}_{field}.x"), names.index(f"{p}_{field}.z") + 1) for p in prefixes]
+    return [
+        slice(names.index(f"{p}_{field}.x"), names.index(f"{p}_{field}.z") + 1)
+        for p in prefixes
+    ]
 
 
 def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
-    """S-ICM's prediction errors on `batches` training minibatches, without updating the model.
+    """S-ICM's prediction errors on `batches` training minibatches,
+    without updating the model.
 
-    Returns the share of rows whose error reaches eta (so Eq. 4 clips them), the same share among
-    rows of successful episodes, error quantiles, and the `top` state entries by mean squared error.
+    Returns the share of rows whose error reaches eta (so Eq. 4 clips them), the same
+    share among rows of successful episodes, error quantiles, and the `top` state
+    entries by mean squared error.
     """
     if not isinstance(trainer.curiosity, SICM):
-        raise ConfigError(f"method={trainer.cfg.method!r} has no S-ICM to diagnose; allowed: acder and its ablations")
+        raise ConfigError(
+            f"method={trainer.cfg.method!r} has no S-ICM to diagnose; allowed: acder "
+            "and its ablations"
+        )
     eta = trainer.cfg.eta
     errs, succ, sq = [], [], 0.0
     with torch.no_grad():
@@ -83,28 +101,100 @@ def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
     names = state_names(trainer)
     order = np.argsort(-sq)[:top]
     return dict(
-        eta=eta, rows=int(err.size), successful_rows=int(succ.sum()),
+        eta=eta,
+        rows=int(err.size),
+        successful_rows=int(succ.sum()),
         share_at_clip=float((err >= eta).mean()),
-        share_at_clip_successful=float((err[succ] >= eta).mean()) if succ.any() else float("nan"),
-        error_quantiles={str(q): float(v) for q, v in zip((0.1, 0.5, 0.9, 0.99),
-                                                           np.quantile(err, [0.1, 0.5, 0.9, 0.99]))},
+        share_at_clip_successful=float((err[succ] >= eta).mean())
+        if succ.any()
+        else float("nan"),
+        error_quantiles={
+            str(q): float(v)
+            for q, v in zip(
+                (0.1, 0.5, 0.9, 0.99), np.quantile(err, [0.1, 0.5, 0.9, 0.99])
+            )
+        },
         top_entries=[(names[i], float(sq[i])) for i in order],
         share_of_error_in_top=float(sq[order].sum() / max(sq.sum(), 1e-12)),
     )
 
 
-def pool_profile(trainer, far: float = 0.2) -> dict:
-    """Where the pool's start states put the gripper (and the object, on tasks that have one).
+def minibatch_errors(trainer, batches: int = 10) -> dict:
+    """S-ICM's error 1/2 ||F(s, a) - s'||^2 (Eq. 4 before the clip) on `batches`
+    minibatches drawn as training draws them, on the inputs the trainer gives the model;
+    nothing is trained.
 
-    `far` (metres): a candidate whose gripper is farther than this from the object (or, on Reach,
-    from the candidate's goal) counts as far. With several objects (the multi-step push) the
-    distance is to the nearest block, and `blocks` gives, per block, the gripper's distance to it
-    and the block's distance to its own target (the candidate's goal), with the share of candidates
-    where the block is on its target (within the env's distance_threshold).
+    Returns `err` (one number per row), `successful` (whether the row's episode ended in
+    success: the rows the start-state selection chooses from,
+    `start_states.select_candidate`) and `eta`. Eq. 4 of a row is `min(err, eta)`, so
+    every successful row with err >= eta ties for the candidate."""
+    if not isinstance(trainer.curiosity, SICM):
+        raise ConfigError(
+            f"method={trainer.cfg.method!r} has no S-ICM; "
+            "allowed: acder and its ablations"
+        )
+    errs, succ = [], []
+    with torch.no_grad():
+        for _ in range(batches):
+            b = trainer.sample_batch()
+            tb = trainer.batch_tensors(b)
+            x, x2 = trainer.curiosity_inputs(b, tb)
+            errs.append(trainer.curiosity.errors(x, tb["u"], x2)[0].cpu().numpy())
+            succ.append(trainer.buffer.success[b["ep"]])
+    err = np.concatenate(errs).astype(np.float64)
+    ok = np.concatenate(succ).astype(bool)
+    return dict(err=err, successful=ok, eta=float(trainer.cfg.eta))
+
+
+def episode_errors(trainer, ep: dict, eta: float = np.inf) -> np.ndarray:
+    """Eq. 4 for every step of whole episodes, shape (W, T), without training the model.
+
+    `ep` holds arrays with a leading env axis, as `acder_lite.trainer.run_episodes`
+    returns them: o (W, T+1, .), g and u (W, T, .). The model sees them as the trainer
+    gives them to it (`Trainer.curiosity_inputs`, so `Config.sicm_input` decides
+    normalised or raw); `eta=inf` leaves out the clip and returns the model's error
+    itself."""
+    from .rewards import intrinsic_reward
+
+    if not isinstance(trainer.curiosity, SICM):
+        raise ConfigError(
+            f"method={trainer.cfg.method!r} has no S-ICM; "
+            "allowed: acder and its ablations"
+        )
+    W, T = ep["u"].shape[:2]
+
+    def flat(a):
+        return np.ascontiguousarray(a).reshape(W * T, -1)
+
+    batch = dict(
+        o=flat(ep["o"][:, :-1]),
+        o2=flat(ep["o"][:, 1:]),
+        g=flat(ep["g"]),
+        u=flat(ep["u"]),
+    )
+    tb = trainer.batch_tensors(batch)
+    s, s2 = trainer.curiosity_inputs(batch, tb)
+    with torch.no_grad():
+        pred = trainer.curiosity(s, tb["u"])
+    return intrinsic_reward(pred.cpu().numpy(), s2.cpu().numpy(), eta).reshape(W, T)
+
+
+def pool_profile(trainer, far: float = 0.2) -> dict:
+    """Where the pool's start states put the gripper (and the object,
+    on tasks that have one).
+
+    `far` (metres): a candidate whose gripper is farther than this from the object (or,
+    on Reach, from the candidate's goal) counts as far. With several objects (the
+    multi-step push) the distance is to the nearest block, and `blocks` gives, per
+    block, the gripper's distance to it and the block's distance to its own target (the
+    candidate's goal), with the share of candidates where the block is on its target
+    (within the env's distance_threshold).
     """
     if trainer.selector is None:
-        raise ConfigError(f"method={trainer.cfg.method!r} has no start-state pool; allowed: acder, "
-                          "acder-no-curiosity, acder-no-goal-factor")
+        raise ConfigError(
+            f"method={trainer.cfg.method!r} has no start-state pool; allowed: acder, "
+            "acder-no-curiosity, acder-no-goal-factor"
+        )
     pool = list(trainer.selector.pool)
     env = E.make_env(trainer.cfg.env, seed=0)
     k = n_objects(env)
@@ -112,8 +202,11 @@ def pool_profile(trainer, far: float = 0.2) -> dict:
     grip, other, blocks, goals, r_int = [], [], [], [], []
     for c in pool:
         if c["state"].size != E.state_size(env):
-            raise CheckpointError(f"the pool's states have {c['state'].size} numbers, not envs.STATE_SPEC's "
-                                  f"{E.state_size(env)}; allowed: a checkpoint written by this version")
+            raise CheckpointError(
+                f"the pool's states have {c['state'].size} numbers, not "
+                f"envs.STATE_SPEC's {E.state_size(env)}; allowed: a checkpoint written "
+                "by this version"
+            )
         E.set_state(env, c["state"])
         o = env._get_obs()["observation"]
         grip.append(o[:3])
@@ -128,65 +221,99 @@ def pool_profile(trainer, far: float = 0.2) -> dict:
     grip, other, r_int = np.array(grip), np.array(other), np.array(r_int)
     d = np.linalg.norm(grip - other, axis=1)
     if pos is not None:
-        blocks, goals = np.array(blocks), np.array(goals)          # (n, k, 3) each
+        blocks, goals = np.array(blocks), np.array(goals)  # (n, k, 3) each
         to_block = np.linalg.norm(blocks - grip[:, None], axis=-1)  # (n, k)
         to_target = np.linalg.norm(blocks - goals, axis=-1)
         d = to_block.min(axis=1)
     out.update(
         share_at_clip=float((r_int >= trainer.cfg.eta).mean()),
         distance_to=("object" if k == 1 else "nearest block" if k else "goal"),
-        distance_median=float(np.median(d)), distance_max=float(d.max()), share_far=float((d > far).mean()),
-        gripper_z_min=float(grip[:, 2].min()), gripper_z_median=float(np.median(grip[:, 2])),
+        distance_median=float(np.median(d)),
+        distance_max=float(d.max()),
+        share_far=float((d > far).mean()),
+        gripper_z_min=float(grip[:, 2].min()),
+        gripper_z_median=float(np.median(grip[:, 2])),
     )
     if pos is not None:
-        out["blocks"] = [dict(distance_median=float(np.median(to_block[:, i])),
-                              distance_max=float(to_block[:, i].max()), share_far=float((to_block[:, i] > far).mean()),
-                              to_target_median=float(np.median(to_target[:, i])),
-                              share_on_target=float((to_target[:, i] < env.distance_threshold).mean()))
-                         for i in range(k)]
+        out["blocks"] = [
+            dict(
+                distance_median=float(np.median(to_block[:, i])),
+                distance_max=float(to_block[:, i].max()),
+                share_far=float((to_block[:, i] > far).mean()),
+                to_target_median=float(np.median(to_target[:, i])),
+                share_on_target=float(
+                    (to_target[:, i] < env.distance_threshold).mean()
+                ),
+            )
+            for i in range(k)
+        ]
     return out
 
 
 def _motion_stats(ag: np.ndarray, velr: np.ndarray, dt: float) -> dict:
-    """Speed, spin and path of one object: `ag` its positions (N, T+1, 3), `velr` the observation's
-    object_velr of it (N, T, 3, steps 1..T)."""
+    """Speed, spin and path of one object: `ag` its positions (N, T+1, 3), `velr` the
+    observation's object_velr of it (N, T, 3, steps 1..T)."""
     steps = np.linalg.norm(np.diff(ag, axis=1), axis=-1)  # (N, T)
     speed = steps / dt
     spin = np.linalg.norm(velr, axis=-1) / dt
     path = steps.sum(1)
     disp = np.linalg.norm(ag[:, -1] - ag[:, 0], axis=-1)
-    moved = disp > 0.02  # episodes where the object ended more than 2 cm from where it began
-    return dict(speed_mean=float(speed.mean()), spin_mean=float(spin.mean()), spin_p99=float(np.quantile(spin, 0.99)),
-                path_mean=float(path.mean()), moved_share=float(moved.mean()),
-                path_over_distance=float(np.median(path[moved] / disp[moved])) if moved.any() else float("nan"))
+    moved = (
+        disp > 0.02
+    )  # episodes where the object ended more than 2 cm from where it began
+    return dict(
+        speed_mean=float(speed.mean()),
+        spin_mean=float(spin.mean()),
+        spin_p99=float(np.quantile(spin, 0.99)),
+        path_mean=float(path.mean()),
+        moved_share=float(moved.mean()),
+        path_over_distance=float(np.median(path[moved] / disp[moved]))
+        if moved.any()
+        else float("nan"),
+    )
 
 
-def object_motion(policy, env_id: str, episodes: int = 40, seed: int = 12345, workers: int = 4) -> dict:
-    """How a policy moves the object on deterministic test episodes (tasks with an object).
+def object_motion(
+    policy, env_id: str, episodes: int = 40, seed: int = 12345, workers: int = 4
+) -> dict:
+    """How a policy moves the object on deterministic test episodes
+    (tasks with an object).
 
-    Per step: the object's speed (m/s, from its position, the achieved goal) and spin (rad/s, the
-    observation's `object_velr`, which Fetch scales by dt). Per episode: the object's path length
-    over the distance from its first to its last position (1 = a straight push; large = pushed
-    around). `episodes` is rounded up to a multiple of `workers` (envs stepped together).
+    Per step: the object's speed (m/s, from its position, the achieved goal) and spin
+    (rad/s, the observation's `object_velr`, which Fetch scales by dt). Per episode: the
+    object's path length over the distance from its first to its last position (1 = a
+    straight push; large = pushed around). `episodes` is rounded up to a multiple of
+    `workers` (envs stepped together).
 
-    With several objects (the multi-step push) every number is per block, under `blocks` (block 0
-    first; its achieved-goal columns [3k, 3k+3) and its own object{k}_velr entries), beside the
-    episodes' success (both blocks on their targets).
+    With several objects (the multi-step push) every number is per block, under `blocks`
+    (block 0 first; its achieved-goal columns [3k, 3k+3) and its own object{k}_velr
+    entries), beside the episodes' success (both blocks on their targets).
     """
     from .rollout import run_episodes
+
     envs = [E.make_env(env_id, seed=seed + i) for i in range(workers)]
     if not envs[0].has_object:
-        raise ConfigError(f"env={env_id!r} has no object to follow; allowed: {', '.join(OBJECT_ENVS)}")
+        raise ConfigError(
+            f"env={env_id!r} has no object to follow; allowed: {', '.join(OBJECT_ENVS)}"
+        )
     velr = object_fields(envs[0], "velr")
     dt, T = float(envs[0].dt), E.horizon(env_id)
     ags, spins, succ = [], [], []
     for _ in range(-(-episodes // workers)):
         ep = run_episodes(envs, policy, T)
         ags.append(ep["ag"].astype(np.float64))
-        spins.append(np.stack([ep["o"][:, 1:, s].astype(np.float64) for s in velr]))  # (k, W, T, 3)
+        spins.append(
+            np.stack([ep["o"][:, 1:, s].astype(np.float64) for s in velr])
+        )  # (k, W, T, 3)
         succ.append(ep["success"])
-    ag, spin, succ = np.concatenate(ags), np.concatenate(spins, axis=1), np.concatenate(succ)
-    stats = [_motion_stats(ag[..., 3 * i:3 * i + 3], spin[i], dt) for i in range(len(velr))]
+    ag, spin, succ = (
+        np.concatenate(ags),
+        np.concatenate(spins, axis=1),
+        np.concatenate(succ),
+    )
+    stats = [
+        _motion_stats(ag[..., 3 * i : 3 * i + 3], spin[i], dt) for i in range(len(velr))
+    ]
     out = dict(episodes=int(succ.size), success=float(succ.mean()))
     if len(stats) == 1:
         out.update(stats[0])
@@ -195,47 +322,95 @@ def object_motion(policy, env_id: str, episodes: int = 40, seed: int = 12345, wo
     return out
 
 
-def diagnose(run_dir: str, batches: int = 10, episodes: int = 0, seed: int = 12345, top: int = 5) -> dict:
-    """Curiosity and pool profiles of the run in `run_dir`, from its checkpoint.pt (the `top`
-    state entries by S-ICM error); or, with `episodes` > 0, the object's motion under its policy.pt
-    (which committed runs keep)."""
+def diagnose(
+    run_dir: str, batches: int = 10, episodes: int = 0, seed: int = 12345, top: int = 5
+) -> dict:
+    """Curiosity and pool profiles of the run in `run_dir`, from its checkpoint.pt (the
+    `top` state entries by S-ICM error); or, with `episodes` > 0, the object's motion
+    under its policy.pt (which committed runs keep)."""
     from .rollout import Policy
     from .trainer import Trainer
+
     if episodes > 0:
         path = os.path.join(run_dir, "policy.pt")
-        pol = load_torch(path)["policy"]  # runs nothing from the file; checks keys and shapes
+        # runs nothing from the file; checks keys and shapes
+        pol = load_torch(path)["policy"]
         if pol["env"] not in E.ENV_IDS:
-            raise CheckpointError(f"checkpoint {path!r} names env {pol['env']!r}; allowed: one of {', '.join(E.ENV_IDS)}")
+            raise CheckpointError(
+                f"checkpoint {path!r} names env {pol['env']!r}; allowed: one of "
+                f"{', '.join(E.ENV_IDS)}"
+            )
         policy = Policy.from_state_dict(pol)
-        env = E.make_env(pol["env"])
+        from .observations import on_full, policy_obs
+
+        env = E.make_env(pol["env"], obs=policy_obs(pol))
         first = env._get_obs()
-        check_policy_fits(pol, path, first["observation"].size, first["desired_goal"].size, env.action_space.shape[0])
+        check_policy_fits(
+            pol,
+            path,
+            first["observation"].size,
+            first["desired_goal"].size,
+            env.action_space.shape[0],
+        )
         env.close()
-        return dict(run=run_dir, method=pol["method"], env=pol["env"],
-                    motion=object_motion(policy, pol["env"], episodes, seed))
+        # the motion reads the full observation (object_velr); a simplified-state policy
+        # is shown its own entries of it
+        act = (
+            policy
+            if getattr(env, "obs_index", None) is None
+            else on_full(policy, env.obs_index)
+        )
+        return dict(
+            run=run_dir,
+            method=pol["method"],
+            env=pol["env"],
+            motion=object_motion(act, pol["env"], episodes, seed),
+        )
     path = os.path.join(run_dir, "checkpoint.pt")
     ckpt = load_torch(path)
     if "buffer" not in ckpt:
-        raise CheckpointError(f"checkpoint {path!r} holds a policy only; allowed: a checkpoint.pt written by train")
+        raise CheckpointError(
+            f"checkpoint {path!r} holds a policy only; allowed: a checkpoint.pt "
+            "written by train"
+        )
     try:
         cfg = Config.from_dict(ckpt["config"])
     except ConfigError as e:
-        raise CheckpointError(f"checkpoint {path!r} holds a config this version cannot use: {e}") from None
+        raise CheckpointError(
+            f"checkpoint {path!r} holds a config this version cannot use: {e}"
+        ) from None
     if not (cfg.switches["curiosity"] == "sicm" or cfg.switches["start_states"]):
-        raise ConfigError(f"method={cfg.method!r} has neither S-ICM nor a start-state pool; allowed: "
-                          "acder and its ablations, or --episodes N for the object's motion")
+        raise ConfigError(
+            f"method={cfg.method!r} has neither S-ICM nor a start-state pool; allowed: "
+            "acder and its ablations, or --episodes N for the object's motion"
+        )
     cfg.threads = 1
     tr = Trainer(cfg)
     try:
         tr.load_state_dict(ckpt)
     except CheckpointError as e:
         raise CheckpointError(f"checkpoint {path!r}: {e}") from None
-    except (KeyError, IndexError, TypeError, ValueError, RuntimeError, AttributeError) as e:
+    except (
+        KeyError,
+        IndexError,
+        TypeError,
+        ValueError,
+        RuntimeError,
+        AttributeError,
+    ) as e:
         # a part of the file does not fit the networks and buffers its own config builds
         msg = str(e).strip().splitlines()[0] if str(e).strip() else ""
-        raise CheckpointError(f"checkpoint {path!r} does not fit its own config ({type(e).__name__}: "
-                              f"{msg[:160]}); allowed: a checkpoint.pt written by train") from None
-    out = dict(run=run_dir, method=cfg.method, env=cfg.env, episodes=tr.episodes, test_success=tr.success_rate)
+        raise CheckpointError(
+            f"checkpoint {path!r} does not fit its own config ({type(e).__name__}: "
+            f"{msg[:160]}); allowed: a checkpoint.pt written by train"
+        ) from None
+    out = dict(
+        run=run_dir,
+        method=cfg.method,
+        env=cfg.env,
+        episodes=tr.episodes,
+        test_success=tr.success_rate,
+    )
     if isinstance(tr.curiosity, SICM):
         out["curiosity"] = curiosity_profile(tr, batches, top)
     if tr.selector is not None:
@@ -244,29 +419,45 @@ def diagnose(run_dir: str, batches: int = 10, episodes: int = 0, seed: int = 123
 
 
 def to_text(d: dict) -> str:
-    lines = [f"{d['run']}: {d['method']} on {d['env']}"
-             + (f", {d['episodes']:,} episodes, test success {d['test_success']:.3f}" if "episodes" in d else "")]
+    lines = [
+        f"{d['run']}: {d['method']} on {d['env']}"
+        + (
+            f", {d['episodes']:,} episodes, test success {d['test_success']:.3f}"
+            if "episodes" in d
+            else ""
+        )
+    ]
     c = d.get("curiosity")
     if c:
         q = c["error_quantiles"]
-        lines += [f"curiosity: {c['rows']:,} rows; error median {q['0.5']:.3g}, 90% {q['0.9']:.3g}, "
-                  f"99% {q['0.99']:.3g}; at the clip eta={c['eta']}: {c['share_at_clip']:.2f} of all rows, "
-                  f"{c['share_at_clip_successful']:.2f} of the {c['successful_rows']:,} rows of successful episodes",
-                  f"  largest errors ({c['share_of_error_in_top']:.0%} of the total): "
-                  + ", ".join(f"{n} {v:.3g}" for n, v in c["top_entries"])]
+        lines += [
+            f"curiosity: {c['rows']:,} rows; error median {q['0.5']:.3g}, 90% "
+            f"{q['0.9']:.3g}, 99% {q['0.99']:.3g}; at the clip eta={c['eta']}: "
+            f"{c['share_at_clip']:.2f} of all rows, "
+            f"{c['share_at_clip_successful']:.2f} of the {c['successful_rows']:,} "
+            "rows of successful episodes",
+            f"  largest errors ({c['share_of_error_in_top']:.0%} of the total): "
+            + ", ".join(f"{n} {v:.3g}" for n, v in c["top_entries"]),
+        ]
     p = d.get("pool")
     if p:
         if p["size"] == 0:
             lines.append("pool: empty")
         else:
-            lines.append(f"pool: {p['size']} candidates, {p['share_at_clip']:.2f} at the clip; gripper to "
-                         f"{p['distance_to']}: median {p['distance_median']:.3f} m, max {p['distance_max']:.3f} m, "
-                         f"{p['share_far']:.2f} farther than {p['far']} m; gripper height min "
-                         f"{p['gripper_z_min']:.3f} m, median {p['gripper_z_median']:.3f} m")
+            lines.append(
+                f"pool: {p['size']} candidates, {p['share_at_clip']:.2f} at the clip; "
+                f"gripper to {p['distance_to']}: median {p['distance_median']:.3f} m, "
+                f"max {p['distance_max']:.3f} m, {p['share_far']:.2f} farther than "
+                f"{p['far']} m; gripper height min {p['gripper_z_min']:.3f} m, median "
+                f"{p['gripper_z_median']:.3f} m"
+            )
             for i, b in enumerate(p.get("blocks", [])):
-                lines.append(f"  block {i}: gripper to it median {b['distance_median']:.3f} m, max {b['distance_max']:.3f} m, "
-                             f"{b['share_far']:.2f} farther than {p['far']} m; to its target median "
-                             f"{b['to_target_median']:.3f} m, on it in {b['share_on_target']:.2f} of the candidates")
+                lines.append(
+                    f"  block {i}: gripper to it median {b['distance_median']:.3f} m, "
+                    f"max {b['distance_max']:.3f} m, {b['share_far']:.2f} farther than "
+                    f"{p['far']} m; to its target median {b['to_target_median']:.3f} "
+                    f"m, on it in {b['share_on_target']:.2f} of the candidates"
+                )
     m = d.get("motion")
     if m:
         head = f"motion: {m['episodes']} test episodes, success {m['success']:.3f}"
@@ -274,23 +465,41 @@ def to_text(d: dict) -> str:
             lines.append(f"{head}; object {_motion_text(m)}")
         else:
             lines.append(head)
-            lines += [f"  block {i}: {_motion_text(b)}" for i, b in enumerate(m["blocks"])]
+            lines += [
+                f"  block {i}: {_motion_text(b)}" for i, b in enumerate(m["blocks"])
+            ]
     return "\n".join(lines)
 
 
 def _motion_text(m: dict) -> str:
-    return (f"speed {m['speed_mean']:.4f} m/s, spin {m['spin_mean']:.3f} rad/s (99%: {m['spin_p99']:.2f}); moved in "
-            f"{m['moved_share']:.2f} of the episodes, path {m['path_over_distance']:.2f} x the distance (median)")
+    return (
+        f"speed {m['speed_mean']:.4f} m/s, spin {m['spin_mean']:.3f} rad/s (99%: "
+        f"{m['spin_p99']:.2f}); moved in {m['moved_share']:.2f} of the episodes, path "
+        f"{m['path_over_distance']:.2f} x the distance (median)"
+    )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("run", help="a run folder holding checkpoint.pt")
-    parser.add_argument("--batches", type=int, default=10, help="minibatches to draw (default: 10)")
-    parser.add_argument("--episodes", type=int, default=0,
-                        help="instead, roll out the run's policy.pt for N test episodes and report how it "
-                             "moves the object (tasks with an object; needs no checkpoint)")
-    parser.add_argument("--seed", type=int, default=12345, help="seed of the test envs for --episodes")
-    parser.add_argument("--top", type=int, default=5, help="state entries to name by S-ICM error (default: 5)")
+    parser.add_argument(
+        "--batches", type=int, default=10, help="minibatches to draw (default: 10)"
+    )
+    parser.add_argument(
+        "--episodes",
+        type=int,
+        default=0,
+        help="instead, roll out the run's policy.pt for N test episodes and report how "
+        "it moves the object (tasks with an object; needs no checkpoint)",
+    )
+    parser.add_argument(
+        "--seed", type=int, default=12345, help="seed of the test envs for --episodes"
+    )
+    parser.add_argument(
+        "--top",
+        type=int,
+        default=5,
+        help="state entries to name by S-ICM error (default: 5)",
+    )
     parser.add_argument("--json", metavar="FILE", help="also write the numbers to FILE")
 
 

@@ -1,8 +1,9 @@
 """The Fetch tasks: construction, seeding, and saving/restoring the full MuJoCo state.
 
-We step the unwrapped MuJoCo env and count the 50-step horizon ourselves (as Baselines' rollout
-worker does), which skips gymnasium's checker wrappers on the hot path.
+We step the unwrapped MuJoCo env and count the 50-step horizon ourselves (as Baselines'
+rollout worker does), which skips gymnasium's checker wrappers on the hot path.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -15,33 +16,56 @@ import numpy as np
 from .config import ENV_IDS, ConfigError
 
 _S = mujoco.mjtState
-STATE_SPEC = int(_S.mjSTATE_FULLPHYSICS | _S.mjSTATE_WARMSTART | _S.mjSTATE_CTRL | _S.mjSTATE_EQ_ACTIVE
-                 | _S.mjSTATE_MOCAP_POS | _S.mjSTATE_MOCAP_QUAT)
-"""What a stored state holds: mjSTATE_FULLPHYSICS (time, qpos, qvel, act, plugin state) plus the
-solver warm start, ctrl, the mocap pose and active equality constraints. DESIGN.md names
-FULLPHYSICS alone; without the warm start the solver starts from another guess and a restored
-rollout differs by ~1e-11 after 20 steps (measured on FetchPush and FetchPickAndPlace), with it
-they match bit for bit. The mocap pose and ctrl cost 7 numbers and keep restores exact for models
-that do not re-anchor the mocap every step. The rest of mjSTATE_INTEGRATION (applied forces, 219 of
-its 292 numbers on FetchPush) is always zero in these tasks and is left out: 73 numbers a step."""
+STATE_SPEC = int(
+    _S.mjSTATE_FULLPHYSICS
+    | _S.mjSTATE_WARMSTART
+    | _S.mjSTATE_CTRL
+    | _S.mjSTATE_EQ_ACTIVE
+    | _S.mjSTATE_MOCAP_POS
+    | _S.mjSTATE_MOCAP_QUAT
+)
+"""What a stored state holds: mjSTATE_FULLPHYSICS (time, qpos, qvel, act, plugin state)
+plus the solver warm start, ctrl, the mocap pose and active equality constraints.
+DESIGN.md names FULLPHYSICS alone; without the warm start the solver starts from another
+guess and a restored rollout differs by ~1e-11 after 20 steps (measured on FetchPush and
+FetchPickAndPlace), with it they match bit for bit. The mocap pose and ctrl cost 7
+numbers and keep restores exact for models that do not re-anchor the mocap every step.
+The rest of mjSTATE_INTEGRATION (applied forces, 219 of its 292 numbers on FetchPush) is
+always zero in these tasks and is left out: 73 numbers a step."""
 
 
 def _import_robotics():
     import gymnasium as gym
-    # gymnasium_robotics prints a notice about Adroit envs on import; it concerns none of ours.
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()), warnings.catch_warnings():
+
+    # gymnasium_robotics prints a notice about Adroit envs on import;
+    # it concerns none of ours.
+    with (
+        contextlib.redirect_stdout(io.StringIO()),
+        contextlib.redirect_stderr(io.StringIO()),
+        warnings.catch_warnings(),
+    ):
         warnings.simplefilter("ignore")
         import gymnasium_robotics
+
         gym.register_envs(gymnasium_robotics)
     return gym
 
 
-def make_env(env_id: str, seed: int | None = None):
+def make_env(env_id: str, seed: int | None = None, obs: str = "full"):
     """Build a goal-based Fetch env (the unwrapped MuJoCo env) and seed it.
 
-    Raises ConfigError for an id that is not a known Fetch task or whose observation is not the
-    goal-based dict (observation, achieved_goal, desired_goal).
+    `obs` is the observation set it gives (`Config.obs`): "full" (the env as
+    gymnasium-robotics makes it) or "simplified" (the paper's section V-E state,
+    `acder_lite.observations`). Raises ConfigError for an id that is not a known Fetch
+    task or whose observation is not the goal-based dict (observation, achieved_goal,
+    desired_goal), or for an unknown `obs`.
     """
+    if (
+        obs != "full"
+    ):  # checked before the (slow) make; "full" takes the path it always took
+        from .observations import check_obs
+
+        check_obs(obs)
     if env_id not in ENV_IDS:
         raise ConfigError(f"env={env_id!r} is not allowed: one of {', '.join(ENV_IDS)}")
     gym = _import_robotics()
@@ -51,45 +75,64 @@ def make_env(env_id: str, seed: int | None = None):
     space = env.observation_space
     keys = set(getattr(space, "spaces", {}) or {})
     if not {"observation", "achieved_goal", "desired_goal"} <= keys:
-        raise ConfigError(f"env={env_id!r} has no goal-based dict observation "
-                          "(needs observation, achieved_goal, desired_goal)")
+        raise ConfigError(
+            f"env={env_id!r} has no goal-based dict observation "
+            "(needs observation, achieved_goal, desired_goal)"
+        )
     env = env.unwrapped
     env.reset(seed=seed)
+    if obs != "full":
+        from .observations import select
+
+        select(env, obs)
     return env
 
 
 def horizon(env_id: str) -> int:
-    """Steps per episode (the registered time limit: 50 for gymnasium-robotics' Fetch tasks, 100 for
-    FetchPushMultiStep-v0, registered by importing acder_lite)."""
+    """Steps per episode (the registered time limit: 50 for gymnasium-robotics' Fetch
+    tasks, 100 for FetchPushMultiStep-v0, registered by importing acder_lite)."""
     gym = _import_robotics()
     return int(gym.spec(env_id).max_episode_steps)
 
 
-def obs_names(env) -> list[str]:
-    """A name for each entry of the Fetch observation vector, in the order `_get_obs` builds it.
+def obs_names(env, full: bool = False) -> list[str]:
+    """A name for each entry of the Fetch observation vector,
+    in the order `_get_obs` builds it.
 
-    Reach has no object: its 10 entries are the gripper's position, finger state and velocities.
-    Push and Pick&Place add the object's position, its position relative to the gripper, its
-    rotation (Euler angles) and its linear and angular velocities (25 entries). With several
-    objects (FetchPushMultiStep-v0: `env.n_objects` = 2, 40 entries) each object field holds every
-    object in turn, named object0_pos, object1_pos, ... (`acder_lite.multistep.OBS_LAYOUT`).
+    Reach has no object: its 10 entries are the gripper's position, finger state and
+    velocities. Push and Pick&Place add the object's position, its position relative to
+    the gripper, its rotation (Euler angles) and its linear and angular velocities (25
+    entries). With several objects (FetchPushMultiStep-v0: `env.n_objects` = 2, 40
+    entries) each object field holds every object in turn, named object0_pos,
+    object1_pos, ... (`acder_lite.multistep.OBS_LAYOUT`).
+
+    An env made with obs="simplified" gives the names of the entries it keeps, in its
+    order (`acder_lite.observations`); `full=True` gives the full vector's names
+    whatever the env gives.
     """
     xyz = lambda name: [f"{name}.{c}" for c in "xyz"]
     n_objects = getattr(env, "n_objects", 1) if env.has_object else 0
-    prefixes = ["object"] if n_objects == 1 else [f"object{i}" for i in range(n_objects)]
+    prefixes = (
+        ["object"] if n_objects == 1 else [f"object{i}" for i in range(n_objects)]
+    )
     each = lambda field: [n for p in prefixes for n in xyz(f"{p}_{field}")]
     names = xyz("grip_pos") + each("pos") + each("rel_pos") + ["finger_l", "finger_r"]
     names += each("rot") + each("velp") + each("velr")
     names += xyz("grip_velp") + ["finger_vel_l", "finger_vel_r"]
-    n = env._get_obs()["observation"].size
-    if len(names) != n:  # a changed gymnasium-robotics layout must not be mislabelled silently
-        raise RuntimeError(f"obs_names: {len(names)} names for an observation of {n} entries")
-    return names
+    n = getattr(env, "full_get_obs", env._get_obs)()["observation"].size
+    if (
+        len(names) != n
+    ):  # a changed gymnasium-robotics layout must not be mislabelled silently
+        raise RuntimeError(
+            f"obs_names: {len(names)} names for an observation of {n} entries"
+        )
+    kept = getattr(env, "obs_index", None)
+    return names if full or kept is None else [names[i] for i in kept]
 
 
 def goal_names(env) -> list[str]:
-    """A name for each entry of the goal: goal.x/y/z, or goal0.x ... goal1.z for the two blocks of
-    FetchPushMultiStep-v0 (block 0's target, then block 1's)."""
+    """A name for each entry of the goal: goal.x/y/z, or goal0.x ... goal1.z for the two
+    blocks of FetchPushMultiStep-v0 (block 0's target, then block 1's)."""
     n = env._get_obs()["desired_goal"].size
     if n == 3:
         return [f"goal.{c}" for c in "xyz"]
@@ -109,16 +152,20 @@ def get_state(env, out: np.ndarray | None = None) -> np.ndarray:
 
 
 def set_state(env, state: np.ndarray) -> None:
-    """Write a stored full physics state back and recompute derived quantities (`mj_forward`)."""
-    mujoco.mj_setState(env.model, env.data, np.asarray(state, dtype=np.float64), STATE_SPEC)
+    """Write a stored full physics state back and recompute derived quantities
+    (`mj_forward`)."""
+    mujoco.mj_setState(
+        env.model, env.data, np.asarray(state, dtype=np.float64), STATE_SPEC
+    )
     mujoco.mj_forward(env.model, env.data)
 
 
 def restart_from(env, state: np.ndarray, goal: np.ndarray | None = None) -> dict:
     """Start a new episode from a stored state (DESIGN.md, "Start states").
 
-    `env.reset()` first, so the episode counter and the goal are fresh (`restart_goal="resample"`);
-    then the stored state is written. Pass `goal` to keep a stored goal (`"episode"`).
+    `env.reset()` first, so the episode counter and the goal are fresh
+    (`restart_goal="resample"`); then the stored state is written. Pass `goal` to keep a
+    stored goal (`"episode"`).
     """
     env.reset()
     set_state(env, state)
@@ -130,13 +177,14 @@ def restart_from(env, state: np.ndarray, goal: np.ndarray | None = None) -> dict
 def step(env, action: np.ndarray) -> tuple[dict, bool]:
     """One env step; returns (observation dict, is_success).
 
-    The env's own `step` with one change: `mj_forward` after the physics step. MuJoCo's `mj_step`
-    leaves positions (xpos, site_xpos) computed for the state one substep *before* the new qpos,
-    so the standard Fetch observation, and the next action's mocap target (which starts from the
-    gripper's xpos), lag one substep (1/20 of a step) behind the state. A stored state cannot
-    reproduce that lag, so restored rollouts would drift (measured: 8e-4 m in 20 steps on
-    FetchPickAndPlace). With kinematics refreshed after every step, the observation is a function
-    of the state and a restored state reproduces a rollout bit for bit. Reward and success are
+    The env's own `step` with one change: `mj_forward` after the physics step. MuJoCo's
+    `mj_step` leaves positions (xpos, site_xpos) computed for the state one substep
+    *before* the new qpos, so the standard Fetch observation, and the next action's
+    mocap target (which starts from the gripper's xpos), lag one substep (1/20 of a
+    step) behind the state. A stored state cannot reproduce that lag, so restored
+    rollouts would drift (measured: 8e-4 m in 20 steps on FetchPickAndPlace). With
+    kinematics refreshed after every step, the observation is a function of the state
+    and a restored state reproduces a rollout bit for bit. Reward and success are
     unchanged in definition (5 cm rule).
     """
     action = np.clip(action, env.action_space.low, env.action_space.high)

@@ -1,9 +1,11 @@
-"""Hindsight Experience Replay, "future" strategy (Andrychowicz et al. 2017; Baselines' sampler).
+"""Hindsight Experience Replay, "future" strategy
+(Andrychowicz et al. 2017; Baselines' sampler).
 
-A share `future_p` = 1 - 1/(1+k) of a minibatch (0.8 for k = 4) gets its goal replaced by the
-achieved goal of a later step of the same episode; rewards are recomputed with the env's own
-`compute_reward`. Vectorised: no Python loop over samples.
+A share `future_p` = 1 - 1/(1+k) of a minibatch (0.8 for k = 4) gets its goal replaced
+by the achieved goal of a later step of the same episode; rewards are recomputed with
+the env's own `compute_reward`. Vectorised: no Python loop over samples.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -20,9 +22,10 @@ def sample_her_transitions(
 ) -> dict[str, np.ndarray]:
     """Sample `batch_size` transitions (s_t, a_t, g, s_{t+1}, r) from stored episodes.
 
-    `episodes` holds arrays o, ag (n, T+1, .), g, u (n, T, .). Episodes and steps are uniform
-    unless given (`ep_idx`, `t_idx`: prioritised replay chooses them). Returned arrays: o, o2, ag,
-    ag2, g, u, r, plus the indices ep, t, future_t and the boolean mask `her` of relabelled rows.
+    `episodes` holds arrays o, ag (n, T+1, .), g, u (n, T, .). Episodes and steps are
+    uniform unless given (`ep_idx`, `t_idx`: prioritised replay chooses them). Returned
+    arrays: o, o2, ag, ag2, g, u, r, plus the indices ep, t, future_t and the boolean
+    mask `her` of relabelled rows.
     """
     n, T = episodes["u"].shape[:2]
     ep = rng.integers(0, n, batch_size) if ep_idx is None else np.asarray(ep_idx)
@@ -35,6 +38,15 @@ def sample_her_transitions(
     ag2 = episodes["ag"][ep, t + 1]
     r = np.asarray(reward_fn(ag2, g, None), dtype=np.float32)
     return dict(
-        o=episodes["o"][ep, t], o2=episodes["o"][ep, t + 1], ag=episodes["ag"][ep, t], ag2=ag2,
-        g=g, u=episodes["u"][ep, t], r=r, ep=ep, t=t, future_t=future_t, her=her,
+        o=episodes["o"][ep, t],
+        o2=episodes["o"][ep, t + 1],
+        ag=episodes["ag"][ep, t],
+        ag2=ag2,
+        g=g,
+        u=episodes["u"][ep, t],
+        r=r,
+        ep=ep,
+        t=t,
+        future_t=future_t,
+        her=her,
     )

@@ -1,5 +1,7 @@
-"""Files that are never half-written (write to a temporary name in the same folder, then rename),
-and torch files read without running anything from them (`load_torch`, `SAFE_GLOBALS`)."""
+"""Files that are never half-written (write to a temporary name in the same folder, then
+rename), and torch files read without running anything from them (`load_torch`,
+`SAFE_GLOBALS`)."""
+
 from __future__ import annotations
 
 import csv
@@ -17,10 +19,21 @@ import numpy as np
 import torch
 
 
+def atomic_write(path: str, write) -> None:
+    """Call `write(f)` on a binary file that becomes `path` only once written whole: a
+    temporary file in the same folder, flushed and fsynced, then renamed over `path`
+    (atomic on POSIX), so a reader sees the old file or the new one, never half of one.
+    For writers outside this module (the robustness bench's tables, the exported
+    policy)."""
+    _atomic(path, write)
+
+
 def _atomic(path: str, write) -> None:
     folder = os.path.dirname(os.path.abspath(path))
     os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder)
+    fd, tmp = tempfile.mkstemp(
+        prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder
+    )
     try:
         os.chmod(tmp, 0o644)
         with os.fdopen(fd, "wb") as f:
@@ -35,12 +48,17 @@ def _atomic(path: str, write) -> None:
 
 
 def write_json(path: str, obj) -> None:
-    _atomic(path, lambda f: f.write((json.dumps(obj, indent=2, sort_keys=False) + "\n").encode()))
+    _atomic(
+        path,
+        lambda f: f.write((json.dumps(obj, indent=2, sort_keys=False) + "\n").encode()),
+    )
 
 
 def write_csv(path: str, rows: list[dict], columns: list[str]) -> None:
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
+    w = csv.DictWriter(
+        buf, fieldnames=columns, extrasaction="ignore", lineterminator="\n"
+    )
     w.writeheader()
     for row in rows:
         w.writerow({k: _fmt(row.get(k, "")) for k in columns})
@@ -62,39 +80,62 @@ class CheckpointError(ValueError):
 
 
 def _safe_globals() -> tuple:
-    """What a file of ours may name besides tensors, numbers, strings, lists, dicts: see SAFE_GLOBALS."""
+    """What a file of ours may name besides tensors, numbers, strings, lists, dicts:
+    see SAFE_GLOBALS."""
     from torch.torch_version import TorchVersion
-    rebuild = np.zeros(0).__reduce__()[0]  # numpy's array reconstructor, whatever module it lives in
+
+    # numpy's array reconstructor, whatever module it lives in
+    rebuild = np.zeros(0).__reduce__()[0]
     return (
-        # numpy arrays (normaliser sums, replay buffer, start-state pool, priorities, energies):
-        # ndarray.__reduce__ -> _reconstruct(ndarray, (0,), b'b') + BUILD with the dtype and bytes
-        (rebuild, "numpy._core.multiarray._reconstruct"),    # numpy >= 2 writes this name
-        (rebuild, "numpy.core.multiarray._reconstruct"),     # numpy 1.x wrote this one: the same function
+        # numpy arrays (normaliser sums, replay buffer, start-state pool, priorities,
+        # energies): ndarray.__reduce__ -> _reconstruct(ndarray, (0,), b'b')
+        # + BUILD with the dtype and bytes
+        (rebuild, "numpy._core.multiarray._reconstruct"),  # numpy >= 2 writes this name
+        (
+            rebuild,
+            "numpy.core.multiarray._reconstruct",
+        ),  # numpy 1.x wrote this one: the same function
         np.ndarray,
         np.dtype,  # dtype('f8', False, True) + BUILD, on the dtype's class below
-        # the dtype classes our arrays have (float32 buffer rows, float64 states and statistics, bool success)
-        np.dtypes.Float32DType, np.dtypes.Float64DType, np.dtypes.BoolDType,
+        # the dtype classes our arrays have (float32 buffer rows,
+        # float64 states and statistics, bool success)
+        np.dtypes.Float32DType,
+        np.dtypes.Float64DType,
+        np.dtypes.BoolDType,
         # checkpoint.pt's versions.torch is torch.__version__, a str subclass
         TorchVersion,
     )
 
 
 SAFE_GLOBALS = _safe_globals()
-"""The only globals `load_torch` lets a file name (torch.load(weights_only=True) already allows
-tensors, OrderedDict, and Python's int/float/str/bytes/bool/None/list/tuple/dict/set). Everything
-else -- os.system, builtins.eval, a class of the writer's -- is refused before it runs. The numpy
-bit generators' states are plain dicts of str and int (PCG64's ints exceed 2^64; pickle's LONG1
-carries them), so they need nothing here."""
+"""The only globals `load_torch` lets a file name (torch.load(weights_only=True) already
+allows tensors, OrderedDict, and Python's
+int/float/str/bytes/bool/None/list/tuple/dict/set). Everything else -- os.system,
+builtins.eval, a class of the writer's -- is refused before it runs. The numpy bit
+generators' states are plain dicts of str and int (PCG64's ints exceed 2^64; pickle's
+LONG1 carries them), so they need nothing here."""
 
 ALLOWED = "allowed: a checkpoint.pt or policy.pt written by train"
-CHECKPOINT_KEYS = ("config", "policy", "agent", "o_norm", "g_norm", "buffer", "progress", "rng")
-"""What a checkpoint.pt holds besides the policy (Trainer.state_dict); a policy.pt holds only `policy`."""
+CHECKPOINT_KEYS = (
+    "config",
+    "policy",
+    "agent",
+    "o_norm",
+    "g_norm",
+    "buffer",
+    "progress",
+    "rng",
+)
+"""What a checkpoint.pt holds besides the policy (Trainer.state_dict);
+a policy.pt holds only `policy`."""
 
 
 def _first_line(e: BaseException) -> str:
     """The informative line of an exception, made one line and not too long."""
     text = str(e)
-    if "WeightsUnpickler error:" in text:  # torch's explanation first, then what was refused
+    if (
+        "WeightsUnpickler error:" in text
+    ):  # torch's explanation first, then what was refused
         text = text.split("WeightsUnpickler error:", 1)[1]
     lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
     line = lines[0] if lines else type(e).__name__
@@ -105,48 +146,76 @@ def _refused(e: BaseException) -> str:
     """Why torch's safe unpickler refused the file, as the end of one sentence."""
     m = re.search(r"GLOBAL ([\w.]+)", str(e))
     if m:  # a __reduce__ of the writer's: os.system, builtins.exec, a class, ...
-        return f"it names the global {m.group(1)} (to call or build it), which a policy or checkpoint never does"
+        return (
+            f"it names the global {m.group(1)} (to call or "
+            "build it), which a policy or checkpoint never does"
+        )
     return f"its pickle is not one torch reads safely ({_first_line(e)})"
 
 
 def load_torch(path: str) -> dict:
-    """Read a policy.pt or checkpoint.pt written by train, without running anything from the file.
+    """Read a policy.pt or checkpoint.pt written by train,
+    without running anything from the file.
 
-    torch.load(weights_only=True) with SAFE_GLOBALS: a pickle naming any other global (a crafted
-    __reduce__) is refused before the call happens. Then the layout is checked: a dict with our
-    `policy` (keys, types and the actor's shapes, `check_policy`) and, for a checkpoint, every part
-    of `CHECKPOINT_KEYS`. Anything else raises CheckpointError: one line naming the file.
+    torch.load(weights_only=True) with SAFE_GLOBALS: a pickle naming any other global (a
+    crafted __reduce__) is refused before the call happens. Then the layout is checked:
+    a dict with our `policy` (keys, types and the actor's shapes, `check_policy`) and,
+    for a checkpoint, every part of `CHECKPOINT_KEYS`. Anything else raises
+    CheckpointError: one line naming the file.
     """
     if not os.path.isfile(path):
         raise CheckpointError(f"checkpoint {path!r} does not exist")
     with open(path, "rb") as f:
         head = f.read(4)
-    if head[:1] == b"\x80":  # pickle's PROTO opcode: a bare pickle (or torch's pre-1.6 format), never ours
-        raise CheckpointError(f"checkpoint {path!r} is a bare pickle, not the zip archive torch.save writes; "
-                              f"it was not unpickled; {ALLOWED}")
+    if (
+        head[:1] == b"\x80"
+    ):  # pickle's PROTO opcode: a bare pickle (or torch's pre-1.6 format), never ours
+        raise CheckpointError(
+            f"checkpoint {path!r} is a bare pickle, not the zip archive torch.save "
+            f"writes; it was not unpickled; {ALLOWED}"
+        )
     if head != b"PK\x03\x04" or not zipfile.is_zipfile(path):
-        raise CheckpointError(f"checkpoint {path!r} is truncated or not a checkpoint (not the zip archive "
-                              f"torch.save writes); {ALLOWED}")
+        raise CheckpointError(
+            f"checkpoint {path!r} is truncated or not a checkpoint (not the zip "
+            f"archive torch.save writes); {ALLOWED}"
+        )
     try:
-        with warnings.catch_warnings(), torch.serialization.safe_globals(list(SAFE_GLOBALS)):
-            warnings.simplefilter("ignore")  # e.g. torch's note on an unusual pickle protocol: one line only
+        with (
+            warnings.catch_warnings(),
+            torch.serialization.safe_globals(list(SAFE_GLOBALS)),
+        ):
+            warnings.simplefilter(
+                "ignore"
+            )  # e.g. torch's note on an unusual pickle protocol: one line only
             obj = torch.load(path, map_location="cpu", weights_only=True)
     except pickle.UnpicklingError as e:
-        raise CheckpointError(f"checkpoint {path!r} is not an acder_lite file: {_refused(e)}; nothing from "
-                              f"it was run; {ALLOWED}") from None
+        raise CheckpointError(
+            f"checkpoint {path!r} is not an acder_lite file: {_refused(e)}; nothing "
+            f"from it was run; {ALLOWED}"
+        ) from None
     except Exception as e:  # truncated zip, random bytes, ...
-        raise CheckpointError(f"checkpoint {path!r} is truncated or not a checkpoint "
-                              f"({type(e).__name__}); {ALLOWED}") from None
+        raise CheckpointError(
+            f"checkpoint {path!r} is truncated or not a checkpoint "
+            f"({type(e).__name__}); {ALLOWED}"
+        ) from None
     if not isinstance(obj, dict) or "policy" not in obj:
-        what = (f"a dict with keys {_keys(obj)}" if isinstance(obj, dict) else f"a {type(obj).__name__}")
-        raise CheckpointError(f"checkpoint {path!r} is not an acder_lite checkpoint: it holds {what}, "
-                              f"not a dict with 'policy' ({ALLOWED})")
+        what = (
+            f"a dict with keys {_keys(obj)}"
+            if isinstance(obj, dict)
+            else f"a {type(obj).__name__}"
+        )
+        raise CheckpointError(
+            f"checkpoint {path!r} is not an acder_lite checkpoint: it holds {what}, "
+            f"not a dict with 'policy' ({ALLOWED})"
+        )
     check_policy(obj["policy"], path)
     if any(k in obj for k in CHECKPOINT_KEYS if k != "policy"):
         missing = [k for k in CHECKPOINT_KEYS if not isinstance(obj.get(k), dict)]
         if missing:
-            raise CheckpointError(f"checkpoint {path!r} is an incomplete checkpoint: no dict {', '.join(missing)} "
-                                  f"({ALLOWED})")
+            raise CheckpointError(
+                f"checkpoint {path!r} is an incomplete checkpoint: no dict "
+                f"{', '.join(missing)} ({ALLOWED})"
+            )
     return obj
 
 
@@ -163,15 +232,27 @@ def _is_real(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-POLICY_KEYS = ("env", "method", "actor", "o_norm", "g_norm", "clip_obs", "shape", "norm")
-"""What `rollout.Policy.state_dict` writes (and `Policy.from_state_dict` reads)."""
+POLICY_KEYS = (
+    "env",
+    "method",
+    "actor",
+    "o_norm",
+    "g_norm",
+    "clip_obs",
+    "shape",
+    "norm",
+)
+"""What `rollout.Policy.state_dict` writes (and `Policy.from_state_dict` reads). The
+trainer adds `obs` (`Config.obs`, the observation set); a policy written before it has
+none and saw "full"."""
 
 
 def check_policy(d, path: str | None = None) -> None:
-    """Raise CheckpointError (one line, naming `path`) unless `d` is a policy as `Policy.state_dict`
-    writes it: its keys, the types of its numbers, and every actor tensor of the shape its recorded
-    `shape` implies ([in_dim] + [hidden] * layers + [act_dim] Linear layers, in_dim = norm.o + norm.g),
-    normaliser statistics of the sizes in `norm`. Nothing is built; a valid policy passes unchanged."""
+    """Raise CheckpointError (one line, naming `path`) unless `d` is a policy as
+    `Policy.state_dict` writes it: its keys, the types of its numbers, and every actor
+    tensor of the shape its recorded `shape` implies ([in_dim] + [hidden] * layers +
+    [act_dim] Linear layers, in_dim = norm.o + norm.g), normaliser statistics of the
+    sizes in `norm`. Nothing is built; a valid policy passes unchanged."""
     where = f"checkpoint {path!r}: its policy" if path is not None else "policy"
 
     def bad(what: str):
@@ -185,9 +266,15 @@ def check_policy(d, path: str | None = None) -> None:
     for k in ("env", "method"):
         if not isinstance(d[k], str):
             bad(f"{k} is a {type(d[k]).__name__}, not a string")
+    from .config import OBS_SETS
+
+    if d.get("obs", "full") not in OBS_SETS:
+        bad(f"obs is {d['obs']!r}, not one of {', '.join(OBS_SETS)}")
     s, n = d["shape"], d["norm"]
-    for name, part, ints, reals in (("shape", s, ("in_dim", "act_dim", "hidden", "layers"), ("max_u",)),
-                                    ("norm", n, ("o", "g"), ("eps", "clip"))):
+    for name, part, ints, reals in (
+        ("shape", s, ("in_dim", "act_dim", "hidden", "layers"), ("max_u",)),
+        ("norm", n, ("o", "g"), ("eps", "clip")),
+    ):
         if not isinstance(part, dict):
             bad(f"{name} is a {type(part).__name__}, not a dict")
         for k in ints:
@@ -209,10 +296,18 @@ def check_policy(d, path: str | None = None) -> None:
     if not isinstance(actor, dict):
         bad(f"actor is a {type(actor).__name__}, not a dict of tensors")
     if set(actor) != set(want):
-        extra, lack = sorted(map(str, set(actor) - set(want))), sorted(set(want) - set(actor))
-        bad("actor does not match its shape (" + "; ".join(
-            ([f"missing {', '.join(lack[:4])}"] if lack else []) + ([f"unexpected {', '.join(extra[:4])}"] if extra else []))
-            + f"; shape: layers={s['layers']})")
+        extra, lack = (
+            sorted(map(str, set(actor) - set(want))),
+            sorted(set(want) - set(actor)),
+        )
+        bad(
+            "actor does not match its shape ("
+            + "; ".join(
+                ([f"missing {', '.join(lack[:4])}"] if lack else [])
+                + ([f"unexpected {', '.join(extra[:4])}"] if extra else [])
+            )
+            + f"; shape: layers={s['layers']})"
+        )
     for k, shp in want.items():
         t = actor[k]
         if not isinstance(t, torch.Tensor) or not t.is_floating_point():
@@ -234,9 +329,13 @@ def check_policy(d, path: str | None = None) -> None:
 
 
 def check_policy_fits(d: dict, path: str, obs: int, goal: int, act: int) -> None:
-    """Raise CheckpointError unless the (checked) policy `d` takes observations of size `obs`, goals
-    of size `goal` and gives actions of size `act` -- the sizes of the env it is asked to run in."""
+    """Raise CheckpointError unless the (checked) policy `d` takes observations of size
+    `obs`, goals of size `goal` and gives actions of size `act` -- the sizes of the env
+    it is asked to run in."""
     n, s = d["norm"], d["shape"]
     if (n["o"], n["g"], s["act_dim"]) != (obs, goal, act):
-        raise CheckpointError(f"checkpoint {path!r}: its policy takes observation/goal/action sizes "
-                              f"{n['o']}/{n['g']}/{s['act_dim']}, {d['env']} has {obs}/{goal}/{act} ({ALLOWED})")
+        raise CheckpointError(
+            f"checkpoint {path!r}: its policy takes observation/goal/action sizes "
+            f"{n['o']}/{n['g']}/{s['act_dim']}, {d['env']} has {obs}/{goal}/{act} "
+            f"({ALLOWED})"
+        )

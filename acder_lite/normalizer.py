@@ -1,4 +1,5 @@
 """Running mean/std normaliser with Baselines' clipping (HER's `Normalizer`)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -9,8 +10,8 @@ class Normalizer:
     """Keeps sum, sum of squares and count (float64) of everything it has seen.
 
     mean = sum/count, std = sqrt(max(eps^2, sumsq/count - mean^2)); `normalize` returns
-    clip((x - mean)/std, -clip, clip). Statistics change only in `update`, so a minibatch is
-    normalised with the same numbers throughout one update step.
+    clip((x - mean)/std, -clip, clip). Statistics change only in `update`, so a
+    minibatch is normalised with the same numbers throughout one update step.
     """
 
     def __init__(self, size: int, eps: float = 0.01, clip: float = 5.0):
@@ -28,7 +29,9 @@ class Normalizer:
         self.sumsq += np.square(x).sum(0)
         self.count += x.shape[0]
         self.mean = self.sum / self.count
-        self.std = np.sqrt(np.maximum(self.eps ** 2, self.sumsq / self.count - np.square(self.mean)))
+        self.std = np.sqrt(
+            np.maximum(self.eps**2, self.sumsq / self.count - np.square(self.mean))
+        )
         self._sync()
 
     def _sync(self) -> None:
@@ -45,8 +48,14 @@ class Normalizer:
         return dict(sum=self.sum.copy(), sumsq=self.sumsq.copy(), count=self.count)
 
     def load_state_dict(self, d: dict) -> None:
-        self.sum, self.sumsq, self.count = np.array(d["sum"]), np.array(d["sumsq"]), int(d["count"])
+        self.sum, self.sumsq, self.count = (
+            np.array(d["sum"]),
+            np.array(d["sumsq"]),
+            int(d["count"]),
+        )
         if self.count:
             self.mean = self.sum / self.count
-            self.std = np.sqrt(np.maximum(self.eps ** 2, self.sumsq / self.count - np.square(self.mean)))
+            self.std = np.sqrt(
+                np.maximum(self.eps**2, self.sumsq / self.count - np.square(self.mean))
+            )
         self._sync()

@@ -1,14 +1,16 @@
-"""The book's figures of runs: mean curves over seeds (Fig. 4 and 5) as Table I reads them.
+"""The book's figures of runs: mean curves over seeds (Fig.
+4 and 5) as Table I reads them.
 
-Every curve is `report.mean_curve` of the runs of one (task, folder name), on an axis of epochs
-with Table I's unit (400 episodes an epoch) on the top axis: the mean where every seed has a
-value, one standard deviation as the band, dotted where a seed stopped by the stop rule is
-carried forward, and a dot where the mean first reaches the threshold. Missing runs come back
-in the returned status ("not run yet"), never as an error.
+Every curve is `report.mean_curve` of the runs of one (task, folder name), on an axis of
+epochs with Table I's unit (400 episodes an epoch) on the top axis: the mean where every
+seed has a value, one standard deviation as the band, dotted where a seed stopped by the
+stop rule is carried forward, and a dot where the mean first reaches the threshold.
+Missing runs come back in the returned status ("not run yet"), never as an error.
 
-Trap: on FetchReach our epochs hold 80 episodes, so the top axis (Table I's unit) is not our
-episode count there; the x axis is epochs on every task, as in the paper's figures.
+Trap: on FetchReach our epochs hold 80 episodes, so the top axis (Table I's unit) is not
+our episode count there; the x axis is epochs on every task, as in the paper's figures.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -17,15 +19,27 @@ from . import report
 from .config import OBJECT_ENVS, TASK_PRESETS
 from .table import METHOD_LABELS, TASK_LABELS
 
-COLORS = {"her": "C0", "her-icm": "C1", "her-per": "C2", "her-ebp": "C3", "acder": "C4",
-          "acder-no-curiosity": "C5", "acder-no-goal-factor": "C6", "acder-no-start-states": "C7",
-          "acder-baselines-clip": "C8", "sicm-normalised": "C4", "sicm-raw": "C9", "sicm-raw-episode-goal": "C1"}
+COLORS = {
+    "her": "C0",
+    "her-icm": "C1",
+    "her-per": "C2",
+    "her-ebp": "C3",
+    "acder": "C4",
+    "acder-no-curiosity": "C5",
+    "acder-no-goal-factor": "C6",
+    "acder-no-start-states": "C7",
+    "acder-baselines-clip": "C8",
+    "sicm-normalised": "C4",
+    "sicm-raw": "C9",
+    "sicm-raw-episode-goal": "C1",
+}
 """One colour per method or experiment, the same in every figure."""
 
 
 def draw_mean(ax, m: report.MeanCurve, threshold: float | None, color=None, label=None):
-    """One mean curve: solid where evaluated, dotted where carried forward, band of one std,
-    a dot at its first crossing of `threshold`. Returns the crossing (epochs) or None."""
+    """One mean curve: solid where evaluated, dotted where carried forward, band of one
+    std, a dot at its first crossing of `threshold`. Returns the crossing (epochs) or
+    None."""
     ok = ~np.isnan(m.mean)
     if not ok.any():
         return None
@@ -33,17 +47,25 @@ def draw_mean(ax, m: report.MeanCurve, threshold: float | None, color=None, labe
     j = int(np.argmax(carried)) if carried.any() else len(x)
     (line,) = ax.plot(x[:j], y[:j], color=color, label=label)
     if carried.any():
-        ax.plot(x[max(j - 1, 0):], y[max(j - 1, 0):], ls=":", color=line.get_color())
+        ax.plot(x[max(j - 1, 0) :], y[max(j - 1, 0) :], ls=":", color=line.get_color())
     if m.n > 1:
         ax.fill_between(x, y - s, y + s, color=line.get_color(), alpha=0.15, lw=0)
-    hit = report.first_crossing(m.x, m.mean, threshold) if threshold is not None else None
+    hit = (
+        report.first_crossing(m.x, m.mean, threshold) if threshold is not None else None
+    )
     if hit is not None:
         ax.plot([hit], [threshold], "o", ms=5, color=line.get_color())
     return hit
 
 
-def style_axes(ax, threshold: float | None = None, title: str | None = None, xmax: float | None = None) -> None:
-    """Axes of a success-rate plot: epochs below, Table I's episodes on top, the threshold dashed."""
+def style_axes(
+    ax,
+    threshold: float | None = None,
+    title: str | None = None,
+    xmax: float | None = None,
+) -> None:
+    """Axes of a success-rate plot: epochs below, Table I's episodes on top,
+    the threshold dashed."""
     if threshold is not None:
         ax.axhline(threshold, color="gray", ls="--", lw=0.8)
     ax.set_xlabel("epochs")
@@ -51,8 +73,13 @@ def style_axes(ax, threshold: float | None = None, title: str | None = None, xma
     ax.set_ylim(-0.05, 1.05)
     ax.set_xlim(0, xmax)
     ax.grid(alpha=0.3)
-    top = ax.secondary_xaxis("top", functions=(lambda e: e * report.PAPER_EPISODES_PER_EPOCH,
-                                               lambda n: n / report.PAPER_EPISODES_PER_EPOCH))
+    top = ax.secondary_xaxis(
+        "top",
+        functions=(
+            lambda e: e * report.PAPER_EPISODES_PER_EPOCH,
+            lambda n: n / report.PAPER_EPISODES_PER_EPOCH,
+        ),
+    )
     top.set_xlabel("episodes in Table I's unit (400 an epoch)", fontsize=8)
     if title:
         ax.set_title(title, fontsize=10, loc="left")
@@ -60,11 +87,20 @@ def style_axes(ax, threshold: float | None = None, title: str | None = None, xma
         ax.legend(fontsize=8, loc="lower right")
 
 
-def plot_mean_curves(ax, runs: list[dict], env: str, names, labels: dict | None = None,
-                     colors: dict | None = None, threshold: float | None = None) -> dict[str, str]:
-    """The mean curve of every folder name in `names` on `env` (runs of `runs.load_runs`).
+def plot_mean_curves(
+    ax,
+    runs: list[dict],
+    env: str,
+    names,
+    labels: dict | None = None,
+    colors: dict | None = None,
+    threshold: float | None = None,
+) -> dict[str, str]:
+    """The mean curve of every folder name in `names` on `env`
+    (runs of `runs.load_runs`).
 
-    Returns name -> status: "not run yet", or seeds, how far the mean reaches, its crossing."""
+    Returns name -> status: "not run yet", or seeds, how far the mean reaches, its
+    crossing."""
     labels, colors = labels or METHOD_LABELS, colors or COLORS
     threshold = report.threshold(env) if threshold is None else threshold
     status = {}
@@ -78,60 +114,121 @@ def plot_mean_curves(ax, runs: list[dict], env: str, names, labels: dict | None 
         label = f"{labels.get(name, name)} ({len(rs)} seed{'s' if len(rs) > 1 else ''})"
         hit = draw_mean(ax, m, threshold, colors.get(name), label)
         ok = ~np.isnan(m.mean)
-        reach = f"mean curve to epoch {m.x[ok][-1]:g}" if ok.any() else "no evaluation of every seed yet"
+        reach = (
+            f"mean curve to epoch {m.x[ok][-1]:g}"
+            if ok.any()
+            else "no evaluation of every seed yet"
+        )
         cross = "" if hit is None else f", first at {threshold:.0%} at epoch {hit:.2f}"
         status[name] = f"{len(rs)} seed(s), {done} done, {reach}{cross}"
     return status
 
 
-def plot_learning_curves(ax, runs: list[dict], env: str, methods, labels: dict | None = None,
-                         colors: dict | None = None, threshold: float | None = None) -> dict[str, str]:
-    """`plot_mean_curves` with the axes styled (chapter 7 draws its Push runs with it)."""
+def plot_learning_curves(
+    ax,
+    runs: list[dict],
+    env: str,
+    methods,
+    labels: dict | None = None,
+    colors: dict | None = None,
+    threshold: float | None = None,
+) -> dict[str, str]:
+    """`plot_mean_curves` with the axes styled
+    (chapter 7 draws its Push runs with it)."""
     status = plot_mean_curves(ax, runs, env, methods, labels, colors, threshold)
     style_axes(ax, report.threshold(env) if threshold is None else threshold)
     return status
 
 
 def view_limit(runs: list[dict], env: str, names) -> float | None:
-    """Right end of a panel: a quarter past the last evaluation of any seed, at most the budget
-    (carried tails run on to the budget, which would squeeze a fast task's curves to the left)."""
-    last = [r["rows"][-1]["epoch"] for r in runs if r["env"] == env and r["name"] in names
-            and r["rows"] and isinstance(r["rows"][-1].get("epoch"), float)]
-    budget = max((r["budget_epochs"] for r in runs if r["env"] == env and r["name"] in names),
-                 default=TASK_PRESETS[env]["epochs"])  # no runs: the task's budget
+    """Right end of a panel: a quarter past the last evaluation of any seed, at most the
+    budget (carried tails run on to the budget, which would squeeze a fast task's curves
+    to the left)."""
+    last = [
+        r["rows"][-1]["epoch"]
+        for r in runs
+        if r["env"] == env
+        and r["name"] in names
+        and r["rows"]
+        and isinstance(r["rows"][-1].get("epoch"), float)
+    ]
+    budget = max(
+        (r["budget_epochs"] for r in runs if r["env"] == env and r["name"] in names),
+        default=TASK_PRESETS[env]["epochs"],
+    )  # no runs: the task's budget
     return min(1.25 * max(last), budget) if last else budget
 
 
-def task_panels(runs: list[dict], names, tasks=report.TASKS, title: str = "", labels: dict | None = None):
-    """One full-width panel per task, the mean curves of `names` on it (her-ebp left out where
-    there is no object). Returns (figure, {task: {name: status}})."""
+def task_panels(
+    runs: list[dict],
+    names,
+    tasks=report.TASKS,
+    title: str = "",
+    labels: dict | None = None,
+):
+    """One full-width panel per task, the mean curves of `names` on it (her-ebp left out
+    where there is no object). Returns (figure, {task: {name: status}})."""
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(len(tasks), 1, figsize=(10, 3.4 * len(tasks)), squeeze=False)
+
+    fig, axes = plt.subplots(
+        len(tasks), 1, figsize=(10, 3.4 * len(tasks)), squeeze=False
+    )
     statuses = {}
     for ax, env in zip(axes[:, 0], tasks):
         here = [n for n in names if not (n == "her-ebp" and env not in OBJECT_ENVS)]
         statuses[env] = plot_mean_curves(ax, runs, env, here, labels)
         if not any(s != "not run yet" for s in statuses[env].values()):
-            ax.text(0.5, 0.5, "not run yet", ha="center", va="center", transform=ax.transAxes, color="gray")
-        style_axes(ax, report.threshold(env), f"{TASK_LABELS.get(env, env)}{': ' + title if title else ''}",
-                   xmax=view_limit(runs, env, here))
+            ax.text(
+                0.5,
+                0.5,
+                "not run yet",
+                ha="center",
+                va="center",
+                transform=ax.transAxes,
+                color="gray",
+            )
+        style_axes(
+            ax,
+            report.threshold(env),
+            f"{TASK_LABELS.get(env, env)}{': ' + title if title else ''}",
+            xmax=view_limit(runs, env, here),
+        )
     fig.tight_layout()
     return fig, statuses
 
 
-def plot_seed_column(ax, runs: list[dict], env: str, names, column: str, ylabel: str,
-                     labels: dict | None = None) -> int:
-    """One thin line per seed of a progress.csv column against epochs (e.g. r_int_mean). Returns
-    how many seeds had the column."""
+def plot_seed_column(
+    ax,
+    runs: list[dict],
+    env: str,
+    names,
+    column: str,
+    ylabel: str,
+    labels: dict | None = None,
+) -> int:
+    """One thin line per seed of a progress.csv column against epochs (e.g. r_int_mean).
+    Returns how many seeds had the column."""
     labels = labels or METHOD_LABELS
     drawn = 0
     for name in names:
-        for i, r in enumerate(rr for rr in runs if rr["env"] == env and rr["name"] == name):
-            pts = [(row["epoch"], row[column]) for row in r["rows"]
-                   if isinstance(row.get(column), float) and isinstance(row.get("epoch"), float)]
+        for i, r in enumerate(
+            rr for rr in runs if rr["env"] == env and rr["name"] == name
+        ):
+            pts = [
+                (row["epoch"], row[column])
+                for row in r["rows"]
+                if isinstance(row.get(column), float)
+                and isinstance(row.get("epoch"), float)
+            ]
             if pts:
                 x, y = zip(*pts)
-                ax.plot(x, y, lw=0.9, color=COLORS.get(name), label=labels.get(name, name) if i == 0 else None)
+                ax.plot(
+                    x,
+                    y,
+                    lw=0.9,
+                    color=COLORS.get(name),
+                    label=labels.get(name, name) if i == 0 else None,
+                )
                 drawn += 1
     ax.set_xlabel("epochs")
     ax.set_ylabel(ylabel)
@@ -142,14 +239,22 @@ def plot_seed_column(ax, runs: list[dict], env: str, names, column: str, ylabel:
 
 
 def plot_statistic(ax, curves: list[report.SeedCurve], threshold: float):
-    """How Table I is read, on given seed curves: each seed thin (carried part dotted), the mean
-    curve thick, its first crossing marked. Returns the crossing (epochs) or None."""
+    """How Table I is read, on given seed curves: each seed thin (carried part dotted),
+    the mean curve thick, its first crossing marked. Returns the crossing (epochs) or
+    None."""
     for i, c in enumerate(curves):
         ev = ~c.carried
-        ax.plot(c.x[ev], c.y[ev], lw=0.8, color="gray", marker=".", label="seeds" if i == 0 else None)
+        ax.plot(
+            c.x[ev],
+            c.y[ev],
+            lw=0.8,
+            color="gray",
+            marker=".",
+            label="seeds" if i == 0 else None,
+        )
         if c.carried.any():
             k = int(np.argmax(c.carried))
-            ax.plot(c.x[k - 1:], c.y[k - 1:], lw=0.8, ls=":", color="gray")
+            ax.plot(c.x[k - 1 :], c.y[k - 1 :], lw=0.8, ls=":", color="gray")
     hit = draw_mean(ax, report.mean_curve(curves), threshold, "C4", "mean curve")
     if hit is not None:
         ax.axvline(hit, color="C4", lw=0.6)

@@ -1,34 +1,40 @@
-"""Table I's statistic: where the mean test-success curve over seeds first crosses the threshold.
+"""Table I's statistic: where the mean test-success curve over seeds first
+crosses the threshold.
 
 Pure functions on arrays and on the rows of progress.csv; reading run folders is `runs`,
 printing is `table`. The statistic (DESIGN.md, "Table I's statistic"):
 
-1. each seed's curve is its test success at its evaluations (protocol v2: once per epoch), on an
-   axis of epochs; a seed that ended by the stop rule carries the mean of its last
-   `CARRY_EVALUATIONS` evaluations forward to the budget (`carry_forward`);
-2. the mean curve over seeds is taken where every seed has a value, linearly interpolated between
-   evaluations, and read at its first crossing of the threshold (`first_crossing`);
+1. each seed's curve is its test success at its evaluations (protocol v2: once per
+   epoch), on an axis of epochs; a seed that ended by the stop rule carries the mean of
+   its last `CARRY_EVALUATIONS` evaluations forward to the budget (`carry_forward`);
+2. the mean curve over seeds is taken where every seed has a value, linearly
+   interpolated between evaluations, and read at its first crossing of the threshold
+   (`first_crossing`);
 3. the crossing is reported in Table I's unit, 400 episodes an epoch on every task
-   (`PAPER_EPISODES_PER_EPOCH`), and in our own episodes (on FetchReach our epochs hold 80);
-4. a 95% bootstrap interval over seeds resamples the seeds with replacement and reads each
-   resample's mean curve the same way (`bootstrap_crossings`, `interval`);
-5. beside it, each seed's own first crossing, summarised by median and range (`seed_summary`).
+   (`PAPER_EPISODES_PER_EPOCH`), and in our own episodes (on FetchReach our epochs hold
+   80);
+4. a 95% bootstrap interval over seeds resamples the seeds with replacement and reads
+   each resample's mean curve the same way (`bootstrap_crossings`, `interval`);
+5. beside it, each seed's own first crossing, summarised by median and range
+   (`seed_summary`).
 
 Traps:
 - A crossing is never interpolated from a point before the first evaluation: there is no
-  evaluation at epoch 0, and a curve already at the threshold at its first evaluation crosses
-  there (a Push curve at 0.97 after epoch 1 crosses at 1.0 epoch, not 0.98).
-- Success rates are means of 0/1 outcomes: 1.0 may arrive as 0.9999999999, so a value counts as
-  reaching the threshold within `SUCCESS_TOL`.
-- Where a seed is missing (still training, or cut short before its budget under protocol v1)
-  the mean curve is undefined, not the mean of the others: a curve with fewer seeds can jump.
-- A resample whose mean curve never crosses has no number. It is ranked after every crossing,
-  so the interval's upper end is "beyond the budget" (`math.inf`) once more than 2.5% of the
-  resamples never cross; `share_crossing` says how many did.
-- With 3 seeds there are only 10 distinct resamples: the interval is coarse, and the percentile
-  bootstrap covers less than 95% for few seeds (`bootstrap_coverage` measures it on a synthetic
-  case: about 75% at 3 seeds, 83% at 5, 93% at 20).
+  evaluation at epoch 0, and a curve already at the threshold at its first evaluation
+  crosses there (a Push curve at 0.97 after epoch 1 crosses at 1.0 epoch, not 0.98).
+- Success rates are means of 0/1 outcomes: 1.0 may arrive as 0.9999999999, so a value
+  counts as reaching the threshold within `SUCCESS_TOL`.
+- Where a seed is missing (still training, or cut short before its budget under protocol
+  v1) the mean curve is undefined, not the mean of the others: a curve with fewer seeds
+  can jump.
+- A resample whose mean curve never crosses has no number. It is ranked after every
+  crossing, so the interval's upper end is "beyond the budget" (`math.inf`) once more
+  than 2.5% of the resamples never cross; `share_crossing` says how many did.
+- With 3 seeds there are only 10 distinct resamples: the interval is coarse, and the
+  percentile bootstrap covers less than 95% for few seeds (`bootstrap_coverage` measures
+  it on a synthetic case: about 75% at 3 seeds, 83% at 5, 93% at 20).
 """
+
 from __future__ import annotations
 
 import math
@@ -49,25 +55,45 @@ ABLATIONS = ("acder-no-curiosity", "acder-no-goal-factor", "acder-no-start-state
 """The three ablations of Fig. 5."""
 
 GRID_METHODS = FIG4_METHODS + ABLATIONS
-"""Every method of the reproduction grid (results/plan.toml); her-ebp only on tasks with an object."""
+"""Every method of the reproduction grid (results/plan.toml);
+her-ebp only on tasks with an object."""
 
 PAPER_TABLE_I: dict[str, dict[str, int | None]] = {
-    "her": {"FetchReach-v4": 2240, "FetchPush-v4": 11600, "FetchPickAndPlace-v4": 33600},
-    "her-icm": {"FetchReach-v4": 2400, "FetchPush-v4": 9800, "FetchPickAndPlace-v4": 29800},
-    "her-per": {"FetchReach-v4": 1440, "FetchPush-v4": 7800, "FetchPickAndPlace-v4": 17400},
-    "her-ebp": {"FetchReach-v4": None, "FetchPush-v4": 7200, "FetchPickAndPlace-v4": 17200},
+    "her": {
+        "FetchReach-v4": 2240,
+        "FetchPush-v4": 11600,
+        "FetchPickAndPlace-v4": 33600,
+    },
+    "her-icm": {
+        "FetchReach-v4": 2400,
+        "FetchPush-v4": 9800,
+        "FetchPickAndPlace-v4": 29800,
+    },
+    "her-per": {
+        "FetchReach-v4": 1440,
+        "FetchPush-v4": 7800,
+        "FetchPickAndPlace-v4": 17400,
+    },
+    "her-ebp": {
+        "FetchReach-v4": None,
+        "FetchPush-v4": 7200,
+        "FetchPickAndPlace-v4": 17200,
+    },
     "acder": {"FetchReach-v4": 400, "FetchPush-v4": 2200, "FetchPickAndPlace-v4": 5200},
 }
-"""Table I: episodes until the threshold, per method (our names) and task; None is the paper's '–'."""
+"""Table I: episodes until the threshold, per method (our names) and task;
+None is the paper's '–'."""
 
 PAPER_EPISODES_PER_EPOCH = 400
 """Table I's unit: 4 workers x 100 episodes an epoch, on every task (section V-B)."""
 
 CARRY_EVALUATIONS = 5
-"""A seed stopped by the stop rule carries the mean of this many last evaluations forward."""
+"""A seed stopped by the stop rule carries the mean of this many last
+evaluations forward."""
 
 SUCCESS_TOL = 1e-9
-"""Slack when comparing a success rate with a threshold (a mean of ones may be 0.9999999999)."""
+"""Slack when comparing a success rate with a threshold
+(a mean of ones may be 0.9999999999)."""
 
 BOOTSTRAP_RESAMPLES = 2000
 """Resamples of the seeds per interval."""
@@ -77,13 +103,19 @@ LEVEL = 0.95
 
 
 def grid_cells(tasks=TASKS, methods=GRID_METHODS) -> list[tuple[str, str]]:
-    """(env, method) of every cell of the grid, in table order; her-ebp only where there is an object."""
-    return [(e, m) for e in tasks for m in methods
-            if not (m == "her-ebp" and e not in OBJECT_ENVS)]
+    """(env, method) of every cell of the grid, in table order;
+    her-ebp only where there is an object."""
+    return [
+        (e, m)
+        for e in tasks
+        for m in methods
+        if not (m == "her-ebp" and e not in OBJECT_ENVS)
+    ]
 
 
 def threshold(env: str) -> float:
-    """The test success Table I counts to on `env` (one source: `config.TASK_PRESETS`)."""
+    """The test success Table I counts to on `env` (one source:
+    `config.TASK_PRESETS`)."""
     return float(TASK_PRESETS[env]["success_threshold"])
 
 
@@ -94,25 +126,31 @@ def paper_ratio(env: str) -> float | None:
 
 
 def episodes_to_threshold(rows: list[dict], threshold: float) -> float | None:
-    """The first `episodes` value (in row order) at which `test_success` >= threshold; None if never.
+    """The first `episodes` value (in row order) at which `test_success` >=
+    threshold; None if never.
 
-    One seed's first evaluation at or above the threshold, without interpolation. The trainer's
-    protocol-v1 gap rule (`Config.stop_gap_episodes`) counts from it; Table I's statistic is
-    `first_crossing` of the mean curve instead.
+    One seed's first evaluation at or above the threshold, without interpolation. The
+    trainer's protocol-v1 gap rule (`Config.stop_gap_episodes`) counts from it; Table
+    I's statistic is `first_crossing` of the mean curve instead.
     """
     for row in rows:
         s = row.get("test_success")
-        if isinstance(s, (int, float)) and not math.isnan(s) and s >= threshold - SUCCESS_TOL:
+        if (
+            isinstance(s, (int, float))
+            and not math.isnan(s)
+            and s >= threshold - SUCCESS_TOL
+        ):
             return float(row["episodes"])
     return None
 
 
 def first_crossing(x, y, threshold: float) -> float | None:
-    """The first x at which the piecewise-linear curve through (x, y) reaches `threshold`.
+    """The first x at which the piecewise-linear curve through (x,
+    y) reaches `threshold`.
 
-    NaN values of y are gaps: a crossing right after a gap is read at the point itself, as is
-    one at the first point (no interpolation from before the first evaluation). None if the
-    curve never gets there.
+    NaN values of y are gaps: a crossing right after a gap is read at the point itself,
+    as is one at the first point (no interpolation from before the first evaluation).
+    None if the curve never gets there.
     """
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     hit = crossings(x, y[None, :], threshold)[0]
@@ -120,7 +158,8 @@ def first_crossing(x, y, threshold: float) -> float | None:
 
 
 def crossings(x: np.ndarray, Y: np.ndarray, threshold: float) -> np.ndarray:
-    """`first_crossing` of every row of Y (curves on the common axis x); inf where none crosses."""
+    """`first_crossing` of every row of Y (curves on the common axis x);
+    inf where none crosses."""
     Y = np.asarray(Y, dtype=float)
     if Y.shape[-1] == 0:
         return np.full(Y.shape[:-1], np.inf)
@@ -139,9 +178,9 @@ def crossings(x: np.ndarray, Y: np.ndarray, threshold: float) -> np.ndarray:
 
 
 def carry_forward(x, y, budget: float, n: int | None = None):
-    """A curve stopped before `budget`, extended at its evaluation spacing with the mean of its
-    last `n` values (default `CARRY_EVALUATIONS`, read at call time). Returns (x, y, carried),
-    carried True on the added points."""
+    """A curve stopped before `budget`, extended at its evaluation spacing with the mean
+    of its last `n` values (default `CARRY_EVALUATIONS`, read at call time). Returns
+    (x, y, carried), carried True on the added points."""
     n = CARRY_EVALUATIONS if n is None else n
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     carried = np.zeros(len(x), dtype=bool)
@@ -153,8 +192,11 @@ def carry_forward(x, y, budget: float, n: int | None = None):
     if not len(extra) or extra[-1] < budget - 1e-9:
         extra = np.append(extra, budget)
     value = float(np.nanmean(y[-n:]))
-    return (np.concatenate([x, extra]), np.concatenate([y, np.full(len(extra), value)]),
-            np.concatenate([carried, np.ones(len(extra), dtype=bool)]))
+    return (
+        np.concatenate([x, extra]),
+        np.concatenate([y, np.full(len(extra), value)]),
+        np.concatenate([carried, np.ones(len(extra), dtype=bool)]),
+    )
 
 
 @dataclass
@@ -167,15 +209,20 @@ class SeedCurve:
     carried: np.ndarray
     """True where the value is carried forward, not evaluated."""
     ended: str | None
-    """How the run ended: None (no done.json: training or interrupted), 'stop rule', 'budget' or
-    'cut' (ended before its budget otherwise: protocol v1's gap rule, or a resume with fewer epochs)."""
+    """How the run ended: None (no done.json: training or interrupted), 'stop rule',
+    'budget' or 'cut' (ended before its budget otherwise: protocol v1's gap rule, or a
+    resume with fewer epochs)."""
 
 
-def seed_curve(rows: list[dict], ended: str | None, budget_epochs: float | None,
-               episodes_per_epoch: float | None = None) -> SeedCurve:
-    """A seed's curve from its progress.csv rows (`epoch` and `test_success`; without an `epoch`
-    column, `episodes / episodes_per_epoch`). Rows without a success value are dropped; a seed
-    stopped by the stop rule is carried forward to `budget_epochs`."""
+def seed_curve(
+    rows: list[dict],
+    ended: str | None,
+    budget_epochs: float | None,
+    episodes_per_epoch: float | None = None,
+) -> SeedCurve:
+    """A seed's curve from its progress.csv rows (`epoch` and `test_success`; without an
+    `epoch` column, `episodes / episodes_per_epoch`). Rows without a success value are
+    dropped; a seed stopped by the stop rule is carried forward to `budget_epochs`."""
     pts = []
     for r in rows:
         s = r.get("test_success")
@@ -197,7 +244,8 @@ def seed_curve(rows: list[dict], ended: str | None, budget_epochs: float | None,
 
 def on_grid(curves: list[SeedCurve]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The seeds on one axis, the union of their points: (x, Y, C), Y[i] seed i linearly
-    interpolated inside its own range and NaN outside it, C[i] True where that value is carried."""
+    interpolated inside its own range and NaN outside it, C[i] True where that value is
+    carried."""
     curves = [c for c in curves if len(c.x)]
     if not curves:
         return np.zeros(0), np.zeros((0, 0)), np.zeros((0, 0), dtype=bool)
@@ -221,7 +269,8 @@ class MeanCurve:
     std: np.ndarray
     """One standard deviation over the seeds (ddof=0), the band of Fig. 4."""
     carried: np.ndarray
-    """True where at least one seed's value is carried forward (Fig. 4 draws it dotted)."""
+    """True where at least one seed's value is carried forward (Fig.
+    4 draws it dotted)."""
     n: int
     """Seeds in the mean."""
 
@@ -235,17 +284,24 @@ def mean_curve(curves: list[SeedCurve]) -> MeanCurve:
 
 
 def cell_seed(key: str) -> int:
-    """A bootstrap seed per cell, stable across runs of the program (Python's hash() is not).
+    """A bootstrap seed per cell, stable across runs of the program
+    (Python's hash() is not).
 
-    Trap: one seed for every cell would draw the same resample indices for HER and ACDER, and
-    their bootstrap ratio would pair resample i of one with the same pattern of the other."""
+    Trap: one seed for every cell would draw the same resample indices for HER and
+    ACDER, and their bootstrap ratio would pair resample i of one with the same pattern
+    of the other."""
     return zlib.crc32(key.encode())
 
 
-def bootstrap_crossings(curves: list[SeedCurve], threshold: float, n_boot: int = BOOTSTRAP_RESAMPLES,
-                        seed: int = 0) -> np.ndarray:
-    """The mean-curve crossing of `n_boot` resamples of the seeds (with replacement, as many as
-    there are); inf where a resample's mean curve does not cross. Deterministic in `seed`."""
+def bootstrap_crossings(
+    curves: list[SeedCurve],
+    threshold: float,
+    n_boot: int = BOOTSTRAP_RESAMPLES,
+    seed: int = 0,
+) -> np.ndarray:
+    """The mean-curve crossing of `n_boot` resamples of the seeds (with replacement, as
+    many as there are); inf where a resample's mean curve does not cross. Deterministic
+    in `seed`."""
     x, Y, _ = on_grid(curves)
     if not len(Y):
         return np.full(n_boot, np.inf)
@@ -254,8 +310,9 @@ def bootstrap_crossings(curves: list[SeedCurve], threshold: float, n_boot: int =
 
 
 def interval(boot: np.ndarray, level: float = LEVEL) -> tuple[float, float]:
-    """The percentile interval of bootstrap values (inf, "never crossed", ranks last; the upper
-    end is inf once more than (1 - level) / 2 of the resamples never cross)."""
+    """The percentile interval of bootstrap values (inf, "never crossed", ranks last;
+    the upper end is inf once more than (1 - level) / 2 of the resamples never
+    cross)."""
     boot = np.asarray(boot, dtype=float)
     boot = boot[~np.isnan(boot)]
     if not len(boot):
@@ -265,44 +322,66 @@ def interval(boot: np.ndarray, level: float = LEVEL) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def bootstrap_coverage(n_seeds: int, reps: int = 300, n_boot: int = 600, seed: int = 12345,
-                       level: float = LEVEL) -> float:
-    """Share of `reps` synthetic experiments of `n_seeds` seeds whose `interval` covers the true
-    mean-curve crossing.
+def bootstrap_coverage(
+    n_seeds: int,
+    reps: int = 300,
+    n_boot: int = 600,
+    seed: int = 12345,
+    level: float = LEVEL,
+) -> float:
+    """Share of `reps` synthetic experiments of `n_seeds` seeds whose `interval` covers
+    the true mean-curve crossing.
 
-    Each seed's curve is min(1, a t) at epochs t = 1..25 with a ~ U(0.04, 0.06): the population's
-    mean curve reaches 0.5 at t = 0.5 / E[a] = 10 epochs, and a sample's at 0.5 / mean(a) (the
-    curves are straight up to there, so interpolation is exact)."""
+    Each seed's curve is min(1, a t) at epochs t = 1..25 with a ~ U(0.04, 0.06): the
+    population's mean curve reaches 0.5 at t = 0.5 / E[a] = 10 epochs, and a sample's at
+    0.5 / mean(a) (the curves are straight up to there, so interpolation is exact)."""
     rng = np.random.default_rng(seed)
     t = np.arange(1.0, 26.0)
     hits = 0
     for i in range(reps):
-        curves = [SeedCurve(t, np.minimum(1.0, a * t), np.zeros(len(t), dtype=bool), "budget")
-                  for a in rng.uniform(0.04, 0.06, size=n_seeds)]
+        curves = [
+            SeedCurve(t, np.minimum(1.0, a * t), np.zeros(len(t), dtype=bool), "budget")
+            for a in rng.uniform(0.04, 0.06, size=n_seeds)
+        ]
         lo, hi = interval(bootstrap_crossings(curves, 0.5, n_boot, seed=i), level)
         hits += lo <= 10.0 <= hi
     return hits / reps
 
 
 def seed_summary(values: list[float | None]) -> dict:
-    """Median and range of per-seed crossings, None (never crossed) ranked after every number.
+    """Median and range of per-seed crossings, None
+    (never crossed) ranked after every number.
 
-    Returns median, low, high (inf where the median or the slowest seed did not cross), k
-    (seeds that crossed) and n."""
+    Returns median, low, high (inf where the median or the slowest seed did not cross),
+    k (seeds that crossed) and n."""
     v = np.array([math.inf if x is None else x for x in values], dtype=float)
     if not len(v):
         return dict(median=None, low=None, high=None, k=0, n=0)
-    return dict(median=float(np.median(v)), low=float(v.min()), high=float(v.max()), k=int(np.isfinite(v).sum()), n=len(v))
+    return dict(
+        median=float(np.median(v)),
+        low=float(v.min()),
+        high=float(v.max()),
+        k=int(np.isfinite(v).sum()),
+        n=len(v),
+    )
 
 
 def ratio_of(h: float | None, a: float | None) -> float | None:
     """h / a; None unless both are numbers."""
-    return h / a if h is not None and a is not None and math.isfinite(h) and math.isfinite(a) and a > 0 else None
+    return (
+        h / a
+        if h is not None
+        and a is not None
+        and math.isfinite(h)
+        and math.isfinite(a)
+        and a > 0
+        else None
+    )
 
 
 def ratio_boot(h_boot: np.ndarray, a_boot: np.ndarray) -> np.ndarray:
-    """HER / ACDER per pair of resamples: inf where only HER never crossed, 0 where only ACDER
-    never crossed, NaN (left out of `interval`) where neither did."""
+    """HER / ACDER per pair of resamples: inf where only HER never crossed, 0 where only
+    ACDER never crossed, NaN (left out of `interval`) where neither did."""
     with np.errstate(invalid="ignore", divide="ignore"):
         r = np.asarray(h_boot, dtype=float) / np.asarray(a_boot, dtype=float)
     r[np.isinf(h_boot) & np.isfinite(a_boot)] = np.inf
@@ -313,12 +392,13 @@ def ratio_boot(h_boot: np.ndarray, a_boot: np.ndarray) -> np.ndarray:
 
 @dataclass
 class CellStat:
-    """Both statistics of one (task, method) cell. Epoch values; `paper_units` and `our_episodes`
-    convert them."""
+    """Both statistics of one (task, method) cell. Epoch values; `paper_units` and
+    `our_episodes` convert them."""
 
     env: str
     name: str
-    """The folder under <env>/ (a method, or an experiment's name such as acder-baselines-clip)."""
+    """The folder under <env>/ (a method, or an experiment's name such as
+    acder-baselines-clip)."""
     method: str | None
     """The runs' method (config.json), None without runs."""
     threshold: float
@@ -347,8 +427,8 @@ class CellStat:
     crossing: float | None = None
     """Epoch at which the mean curve first reaches the threshold."""
     why: str = ""
-    """Why there is no crossing: 'not run yet', 'no evaluation yet', 'not yet', 'not within
-    budget' or 'not before a seed's curve was cut'."""
+    """Why there is no crossing: 'not run yet', 'no evaluation yet', 'not yet', 'not
+    within budget' or 'not before a seed's curve was cut'."""
     low: float | None = None
     high: float | None = None
     """The bootstrap interval (epochs; high is inf when it reaches past the budget)."""
@@ -373,11 +453,20 @@ class CellStat:
 
     def our_episodes(self, epochs: float | None) -> float | None:
         """Epochs in our training episodes (None where unknown)."""
-        return None if epochs is None or self.episodes_per_epoch is None else epochs * self.episodes_per_epoch
+        return (
+            None
+            if epochs is None or self.episodes_per_epoch is None
+            else epochs * self.episodes_per_epoch
+        )
 
     def to_dict(self) -> dict:
-        """The scalars as JSON-ready values (inf and NaN become None), with the two conversions."""
-        d = {f.name: json_ready(getattr(self, f.name)) for f in fields(self) if f.name != "boot"}
+        """The scalars as JSON-ready values (inf and NaN become None),
+        with the two conversions."""
+        d = {
+            f.name: json_ready(getattr(self, f.name))
+            for f in fields(self)
+            if f.name != "boot"
+        }
         d["crossing_episodes_paper_units"] = json_ready(self.paper_units(self.crossing))
         d["crossing_our_episodes"] = json_ready(self.our_episodes(self.crossing))
         return d
@@ -398,15 +487,25 @@ def one_or_none(values):
     return s.pop() if len(s) == 1 else None
 
 
-def cell_stat(env: str, name: str, runs: list[dict], planned: dict | None = None,
-              n_boot: int = BOOTSTRAP_RESAMPLES) -> CellStat:
+def cell_stat(
+    env: str,
+    name: str,
+    runs: list[dict],
+    planned: dict | None = None,
+    n_boot: int = BOOTSTRAP_RESAMPLES,
+) -> CellStat:
     """Both statistics of one cell from its runs (dicts of `runs.read_run`: rows, ended,
     budget_epochs, episodes_per_epoch, seed, method, update_dtype).
 
     `planned` is this cell's entry of `runs.planned_cells` (seeds, hold), or None."""
     thr = threshold(env)
-    c = CellStat(env, name, one_or_none(r["method"] for r in runs), thr,
-                 paper=PAPER_TABLE_I.get(name, {}).get(env))
+    c = CellStat(
+        env,
+        name,
+        one_or_none(r["method"] for r in runs),
+        thr,
+        paper=PAPER_TABLE_I.get(name, {}).get(env),
+    )
     if planned:
         c.planned, c.hold = planned.get("seeds"), planned.get("hold", "")
     if not runs:
@@ -421,40 +520,77 @@ def cell_stat(env: str, name: str, runs: list[dict], planned: dict | None = None
     c.episodes_per_epoch = one_or_none(r.get("episodes_per_epoch") for r in runs)
     budgets = [r["budget_epochs"] for r in runs if r.get("budget_epochs")]
     c.budget_epochs = max(budgets) if budgets else None
-    curves = [seed_curve(r["rows"], r["ended"], c.budget_epochs, r.get("episodes_per_epoch")) for r in runs]
+    curves = [
+        seed_curve(r["rows"], r["ended"], c.budget_epochs, r.get("episodes_per_epoch"))
+        for r in runs
+    ]
     c.seed_crossings = [first_crossing(s.x, s.y, thr) for s in curves]
     summ = seed_summary(c.seed_crossings)
-    c.seed_median, c.seed_low, c.seed_high, c.k = summ["median"], summ["low"], summ["high"], summ["k"]
+    c.seed_median, c.seed_low, c.seed_high, c.k = (
+        summ["median"],
+        summ["low"],
+        summ["high"],
+        summ["k"],
+    )
     if any(not len(s.x) for s in curves):
         c.why = "no evaluation yet"
         return c
     m = mean_curve(curves)
-    c.evaluated_epochs = float(m.x[~np.isnan(m.mean)][-1]) if (~np.isnan(m.mean)).any() else None
+    c.evaluated_epochs = (
+        float(m.x[~np.isnan(m.mean)][-1]) if (~np.isnan(m.mean)).any() else None
+    )
     c.crossing = first_crossing(m.x, m.mean, thr)
     c.boot = bootstrap_crossings(curves, thr, n_boot, cell_seed(f"{env}/{name}"))
     c.low, c.high = interval(c.boot)
     c.share_crossing = float(np.isfinite(c.boot).mean())
     if c.crossing is None:
-        reached_budget = c.budget_epochs is not None and c.evaluated_epochs is not None \
+        reached_budget = (
+            c.budget_epochs is not None
+            and c.evaluated_epochs is not None
             and c.evaluated_epochs >= c.budget_epochs - 1e-9
-        c.why = ("not within budget" if reached_budget or not (c.unfinished or c.cut)
-                 else "not yet" if c.unfinished else "not before a seed's curve was cut")
+        )
+        c.why = (
+            "not within budget"
+            if reached_budget or not (c.unfinished or c.cut)
+            else "not yet"
+            if c.unfinished
+            else "not before a seed's curve was cut"
+        )
     return c
 
 
-def summarize(runs: list[dict], planned: dict | None = None, cells=None,
-              n_boot: int = BOOTSTRAP_RESAMPLES) -> list[CellStat]:
-    """`cell_stat` of every (env, name): those of `cells` (e.g. `grid_cells()`) in their order,
-    then the others found in `runs` or `planned` (a `runs.planned_cells` dict), by task."""
+def summarize(
+    runs: list[dict],
+    planned: dict | None = None,
+    cells=None,
+    n_boot: int = BOOTSTRAP_RESAMPLES,
+) -> list[CellStat]:
+    """`cell_stat` of every (env, name): those of `cells` (e.g. `grid_cells()`) in their
+    order, then the others found in `runs` or `planned` (a `runs.planned_cells` dict),
+    by task."""
     groups: dict[tuple[str, str], list[dict]] = {}
     for r in runs:
         groups.setdefault((r["env"], r["name"]), []).append(r)
     keys = list(cells or [])
-    extra = sorted((set(groups) | set(planned or {})) - set(keys),
-                   key=lambda k: (TASKS.index(k[0]) if k[0] in TASKS else len(TASKS), k[0],
-                                  GRID_METHODS.index(k[1]) if k[1] in GRID_METHODS else len(GRID_METHODS), k[1]))
-    return [cell_stat(e, n, sorted(groups.get((e, n), []), key=lambda r: str(r["seed"])),
-                      (planned or {}).get((e, n)), n_boot) for e, n in keys + extra]
+    extra = sorted(
+        (set(groups) | set(planned or {})) - set(keys),
+        key=lambda k: (
+            TASKS.index(k[0]) if k[0] in TASKS else len(TASKS),
+            k[0],
+            GRID_METHODS.index(k[1]) if k[1] in GRID_METHODS else len(GRID_METHODS),
+            k[1],
+        ),
+    )
+    return [
+        cell_stat(
+            e,
+            n,
+            sorted(groups.get((e, n), []), key=lambda r: str(r["seed"])),
+            (planned or {}).get((e, n)),
+            n_boot,
+        )
+        for e, n in keys + extra
+    ]
 
 
 @dataclass
@@ -465,25 +601,28 @@ class RatioStat:
     ours: float | None
     """The ratio of the two crossings (None unless both crossed)."""
     bound: float | None = None
-    """A lower bound where HER did not cross within its budget but ACDER did: budget / ACDER."""
+    """A lower bound where HER did not cross within its budget but ACDER did:
+    budget / ACDER."""
     low: float | None = None
     high: float | None = None
-    """Bootstrap interval of the ratio (pairs of independent resamples of the two cells)."""
+    """Bootstrap interval of the ratio (pairs of independent resamples of
+    the two cells)."""
     share: float | None = None
     """Share of resample pairs in which both crossed."""
     paper: float | None = None
     why: str = ""
     """Why there is no ratio ('' if there is one)."""
     seed_ratio: float | None = None
-    """The ratio of the two cells' per-seed median crossings (a second reading, for comparison)."""
+    """The ratio of the two cells' per-seed median crossings (a second reading,
+    for comparison)."""
 
     def to_dict(self) -> dict:
         return {f.name: json_ready(getattr(self, f.name)) for f in fields(self)}
 
 
 def ratio_stat(her: CellStat | None, acder: CellStat | None) -> RatioStat:
-    """HER's crossing over ACDER's, both read off their mean curves (same unit, so the Reach
-    episode count does not matter)."""
+    """HER's crossing over ACDER's, both read off their mean curves (same unit, so the
+    Reach episode count does not matter)."""
     env = (her or acder).env
     r = RatioStat(env, None, paper=paper_ratio(env))
     if her is None or acder is None or not her.n or not acder.n:
@@ -509,8 +648,11 @@ def ratio_stat(her: CellStat | None, acder: CellStat | None) -> RatioStat:
 def ratios(cells: list[CellStat], tasks=TASKS) -> list[RatioStat]:
     """`ratio_stat` per task, from the her and acder cells of `cells`."""
     by = {(c.env, c.name): c for c in cells}
-    return [ratio_stat(by.get((e, "her")), by.get((e, "acder"))) for e in tasks
-            if (e, "her") in by or (e, "acder") in by]
+    return [
+        ratio_stat(by.get((e, "her")), by.get((e, "acder")))
+        for e in tasks
+        if (e, "her") in by or (e, "acder") in by
+    ]
 
 
 def learning_curves(runs: list[dict]) -> dict[tuple[str, str], MeanCurve]:
@@ -520,18 +662,32 @@ def learning_curves(runs: list[dict]) -> dict[tuple[str, str], MeanCurve]:
         groups.setdefault((r["env"], r["name"]), []).append(r)
     out = {}
     for key, rs in sorted(groups.items()):
-        budget = max((r["budget_epochs"] for r in rs if r.get("budget_epochs")), default=None)
-        out[key] = mean_curve([seed_curve(r["rows"], r["ended"], budget, r.get("episodes_per_epoch")) for r in rs])
+        budget = max(
+            (r["budget_epochs"] for r in rs if r.get("budget_epochs")), default=None
+        )
+        out[key] = mean_curve(
+            [
+                seed_curve(r["rows"], r["ended"], budget, r.get("episodes_per_epoch"))
+                for r in rs
+            ]
+        )
     return out
 
 
-def column_tail(runs: list[dict], env: str, name: str, column: str, last: int = 5) -> float | None:
-    """A progress.csv column averaged over each seed's `last` evaluations, then over the seeds
-    of (env, name); None where no seed has the column (e.g. r_int_mean of a method without S-ICM)."""
+def column_tail(
+    runs: list[dict], env: str, name: str, column: str, last: int = 5
+) -> float | None:
+    """A progress.csv column averaged over each seed's `last` evaluations, then over the
+    seeds of (env, name); None where no seed has the column (e.g. r_int_mean of a method
+    without S-ICM)."""
     per_seed = []
     for r in runs:
         if r["env"] == env and r["name"] == name:
-            vals = [row[column] for row in r["rows"] if isinstance(row.get(column), float) and not math.isnan(row[column])]
+            vals = [
+                row[column]
+                for row in r["rows"]
+                if isinstance(row.get(column), float) and not math.isnan(row[column])
+            ]
             if vals:
                 per_seed.append(float(np.mean(vals[-last:])))
     return float(np.mean(per_seed)) if per_seed else None

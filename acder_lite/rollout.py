@@ -1,10 +1,12 @@
 """Acting in the envs: the trained policy with its normalisers, and the batched rollout.
 
-Used by the trainer (collection and evaluation), `eval`, `diagnose`, `bench` and the book's
-scenes. `run_episodes` steps the W envs together with one batched policy call per step; with a
-thread pool it steps them in parallel (MuJoCo's mj_step releases the GIL), which gives the same
-arrays bit for bit: every env is stepped exactly as before, only at the same time.
+Used by the trainer (collection and evaluation), `eval`, `diagnose`, `bench` and the
+book's scenes. `run_episodes` steps the W envs together with one batched policy call per
+step; with a thread pool it steps them in parallel (MuJoCo's mj_step releases the GIL),
+which gives the same arrays bit for bit: every env is stepped exactly as before, only at
+the same time.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -16,56 +18,105 @@ from .normalizer import Normalizer
 
 
 class Policy:
-    """A trained actor with its normalisers: what `eval` and the book need to act."""
+    """A trained actor with its normalisers: what `eval` and the book need to act.
 
-    def __init__(self, actor: Actor, o_norm: Normalizer, g_norm: Normalizer, clip_obs: float):
-        self.actor, self.o_norm, self.g_norm, self.clip_obs = actor, o_norm, g_norm, clip_obs
+    `device` is the actor's (None: the CPU). The normalisers keep their statistics in
+    numpy and normalise on the CPU; the normalised batch goes to the device once
+    (`inputs`), the actions come back once per batched step (`__call__`): both no-ops on
+    the CPU.
+    """
+
+    def __init__(
+        self,
+        actor: Actor,
+        o_norm: Normalizer,
+        g_norm: Normalizer,
+        clip_obs: float,
+        device=None,
+    ):
+        self.actor, self.o_norm, self.g_norm, self.clip_obs = (
+            actor,
+            o_norm,
+            g_norm,
+            clip_obs,
+        )
+        self.device = torch.device("cpu" if device is None else device)
 
     def inputs(self, o: np.ndarray, g: np.ndarray) -> torch.Tensor:
-        """Network input: [normalise(clip(o)), normalise(clip(g))], float32 (on the hot path)."""
+        """Network input: [normalise(clip(o)), normalise(clip(g))], float32, on the
+        device (the hot path: one transfer per batch, the same bits on any device)."""
         c = self.clip_obs
         o_t = torch.as_tensor(o, dtype=torch.float32).clamp(-c, c)
         g_t = torch.as_tensor(g, dtype=torch.float32).clamp(-c, c)
-        return torch.cat([self.o_norm.normalize(o_t), self.g_norm.normalize(g_t)], dim=-1)
+        x = torch.cat([self.o_norm.normalize(o_t), self.g_norm.normalize(g_t)], dim=-1)
+        return x.to(self.device)
 
     @torch.no_grad()
     def __call__(self, o: np.ndarray, g: np.ndarray) -> np.ndarray:
-        return self.actor(self.inputs(o, g)).numpy()
+        return self.actor(self.inputs(o, g)).cpu().numpy()  # the envs step on the CPU
 
     def state_dict(self, env: str, method: str) -> dict:
         a = self.actor
-        return dict(env=env, method=method, actor=a.state_dict(), o_norm=self.o_norm.state_dict(),
-                    g_norm=self.g_norm.state_dict(), clip_obs=self.clip_obs,
-                    shape=dict(in_dim=a.net[0].in_features, act_dim=a.net[-2].out_features,
-                               hidden=a.net[0].out_features, layers=(len(a.net) - 2) // 2, max_u=a.max_u),
-                    norm=dict(o=self.o_norm.size, g=self.g_norm.size, eps=self.o_norm.eps, clip=self.o_norm.clip))
+        return dict(
+            env=env,
+            method=method,
+            actor=a.state_dict(),
+            o_norm=self.o_norm.state_dict(),
+            g_norm=self.g_norm.state_dict(),
+            clip_obs=self.clip_obs,
+            shape=dict(
+                in_dim=a.net[0].in_features,
+                act_dim=a.net[-2].out_features,
+                hidden=a.net[0].out_features,
+                layers=(len(a.net) - 2) // 2,
+                max_u=a.max_u,
+            ),
+            norm=dict(
+                o=self.o_norm.size,
+                g=self.g_norm.size,
+                eps=self.o_norm.eps,
+                clip=self.o_norm.clip,
+            ),
+        )
 
     @classmethod
-    def from_state_dict(cls, d: dict) -> "Policy":
-        """Rebuild the policy `state_dict` wrote; CheckpointError (one line) if `d` is not one, checked
-        (keys, numbers, the actor's shapes) before anything is built (`io.check_policy`)."""
+    def from_state_dict(cls, d: dict, device=None) -> "Policy":
+        """Rebuild the policy `state_dict` wrote, on `device` (None: the CPU);
+        CheckpointError (one line) if `d` is not one, checked (keys, numbers, the
+        actor's shapes) before anything is built (`io.check_policy`)."""
         from .io import check_policy
+
         check_policy(d)
         s, n = d["shape"], d["norm"]
         actor = Actor(s["in_dim"], s["act_dim"], s["hidden"], s["layers"], s["max_u"])
         actor.load_state_dict(d["actor"])
-        o_norm, g_norm = Normalizer(n["o"], n["eps"], n["clip"]), Normalizer(n["g"], n["eps"], n["clip"])
+        actor.to("cpu" if device is None else device)
+        o_norm, g_norm = (
+            Normalizer(n["o"], n["eps"], n["clip"]),
+            Normalizer(n["g"], n["eps"], n["clip"]),
+        )
         o_norm.load_state_dict(d["o_norm"])
         g_norm.load_state_dict(d["g_norm"])
-        return cls(actor, o_norm, g_norm, d["clip_obs"])
+        return cls(actor, o_norm, g_norm, d["clip_obs"], device)
 
 
 def run_episodes(envs: list, act, T: int, starts=None, pool=None) -> dict:
-    """Roll out one episode in each env, stepping them together with one batched `act(o, g)` call.
+    """Roll out one episode in each env,
+    stepping them together with one batched `act(o, g)` call.
 
-    `starts(i)` may return a stored start (dict with state, goal or None) for env i. `pool` (a
-    concurrent.futures executor, or None) steps the envs in parallel threads; resets stay in
-    order, since `starts` may draw from a shared random stream. Returns arrays with a leading env
-    axis: o, ag, state (T+1 steps), g, u (T steps), success (last step), novel.
+    `starts(i)` may return a stored start (dict with state, goal or None) for env i.
+    `pool` (a concurrent.futures executor, or None) steps the envs in parallel threads;
+    resets stay in order, since `starts` may draw from a shared random stream. Returns
+    arrays with a leading env axis: o, ag, state (T+1 steps), g, u (T steps), success
+    (last step), novel.
     """
     W = len(envs)
     first = envs[0]._get_obs()
-    od, gd, sd = first["observation"].size, first["desired_goal"].size, E.state_size(envs[0])
+    od, gd, sd = (
+        first["observation"].size,
+        first["desired_goal"].size,
+        E.state_size(envs[0]),
+    )
     ad = envs[0].action_space.shape[0]
     o = np.empty((W, T + 1, od), np.float32)
     ag = np.empty((W, T + 1, gd), np.float32)
@@ -82,7 +133,11 @@ def run_episodes(envs: list, act, T: int, starts=None, pool=None) -> dict:
         else:
             obs = E.restart_from(env, start["state"], start.get("goal"))
             novel[i] = True
-        o[i, 0], ag[i, 0], goal[i] = obs["observation"], obs["achieved_goal"], obs["desired_goal"]
+        o[i, 0], ag[i, 0], goal[i] = (
+            obs["observation"],
+            obs["achieved_goal"],
+            obs["desired_goal"],
+        )
         E.get_state(env, state[i, 0])
 
     def step(i: int, t: int, a_i: np.ndarray) -> None:  # writes only env i's rows

@@ -1,7 +1,10 @@
-"""A run folder's files: progress.csv, config.json, checkpoint.pt with policy.pt, done.json.
+"""A run folder's files:
+progress.csv, config.json, checkpoint.pt with policy.pt, done.json.
 
-Every file is written atomically (`io`), so an interrupt leaves the previous version whole.
+Every file is written atomically (`io`), so an interrupt leaves the previous version
+whole.
 """
+
 from __future__ import annotations
 
 import json
@@ -17,21 +20,40 @@ from .io import save_torch, write_csv, write_json
 def versions() -> dict:
     import gymnasium
     import mujoco
-    return dict(python=platform.python_version(), numpy=np.__version__, torch=torch.__version__,
-                mujoco=mujoco.__version__, gymnasium=gymnasium.__version__,
-                gymnasium_robotics=_version("gymnasium-robotics"), acder_lite=_version("acder-lite"),
-                git=_git_commit())
+
+    return dict(
+        python=platform.python_version(),
+        numpy=np.__version__,
+        torch=torch.__version__,
+        mujoco=mujoco.__version__,
+        gymnasium=gymnasium.__version__,
+        gymnasium_robotics=_version("gymnasium-robotics"),
+        acder_lite=_version("acder-lite"),
+        git=_git_commit(),
+    )
 
 
 def _git_commit() -> str:
-    """The source's commit (with '+dirty' for uncommitted changes), or '' outside a checkout."""
+    """The source's commit (with '+dirty' for uncommitted changes),
+    or '' outside a checkout."""
     import subprocess
+
     here = os.path.dirname(os.path.abspath(__file__))
     try:
-        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True,
-                              timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "."], cwd=here,
-                               capture_output=True, text=True, timeout=10).stdout.strip()
+        head = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            cwd=here,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no", "--", "."],
+            cwd=here,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        ).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return ""
     return head + ("+dirty" if dirty and head else "")
@@ -39,6 +61,7 @@ def _git_commit() -> str:
 
 def _version(dist: str) -> str:
     from importlib import metadata
+
     try:
         return metadata.version(dist)
     except metadata.PackageNotFoundError:
@@ -46,7 +69,8 @@ def _version(dist: str) -> str:
 
 
 class RunFiles:
-    """The files of one run folder (`out_dir`), written by the trainer at the points it chooses."""
+    """The files of one run folder (`out_dir`),
+    written by the trainer at the points it chooses."""
 
     def __init__(self, out_dir: str):
         self.out_dir = out_dir
@@ -58,22 +82,36 @@ class RunFiles:
         """progress.csv: one row per evaluation."""
         write_csv(self.path("progress.csv"), rows, columns)
 
-    def write_config(self, config: dict, seed: int, command: str, at_cycle: int) -> None:
-        """config.json: the config, the command, versions. A resumed run (at_cycle > 0) keeps the
-        first command and appends its own under "resumes"."""
+    def write_config(
+        self, config: dict, seed: int, command: str, at_cycle: int
+    ) -> None:
+        """config.json: the config, the command, versions. A resumed run (at_cycle > 0)
+        keeps the first command and appends its own under "resumes"."""
         path = self.path("config.json")
-        here = dict(command=command, at_cycle=at_cycle, versions=versions(), threads=torch.get_num_threads())
+        here = dict(
+            command=command,
+            at_cycle=at_cycle,
+            versions=versions(),
+            threads=torch.get_num_threads(),
+        )
         if at_cycle and os.path.exists(path):
             with open(path) as f:
                 d = json.load(f)
             d["config"] = config
             d.setdefault("resumes", []).append(here)
         else:
-            d = dict(config=config, command=command, seed=seed, versions=here["versions"], threads=here["threads"])
+            d = dict(
+                config=config,
+                command=command,
+                seed=seed,
+                versions=here["versions"],
+                threads=here["threads"],
+            )
         write_json(path, d)
 
     def save(self, state: dict, policy_state: dict) -> None:
-        """checkpoint.pt (everything, to resume) and policy.pt (the actor and its normalisers)."""
+        """checkpoint.pt (everything, to resume) and policy.pt
+        (the actor and its normalisers)."""
         save_torch(self.path("checkpoint.pt"), state)
         save_torch(self.path("policy.pt"), dict(policy=policy_state))
 

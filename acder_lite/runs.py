@@ -1,20 +1,23 @@
-"""Finding and reading run folders: `<root>/<env>/<name>/seed<k>/` as `train` writes them.
+"""Finding and reading run folders: `<root>/<env>/<name>/seed<k>/` as
+`train` writes them.
 
-A run folder holds `config.json` (the config, the command, versions), `progress.csv` (one row per
-evaluation) and, once it has ended, `done.json`. `load_runs(root)` reads every run folder under
-`root` (or `root` itself); a folder it cannot read is named on stderr in one line, with why, and
-skipped, so one bad folder never hides the others.
+A run folder holds `config.json` (the config, the command, versions), `progress.csv`
+(one row per evaluation) and, once it has ended, `done.json`. `load_runs(root)` reads
+every run folder under `root` (or `root` itself); a folder it cannot read is named on
+stderr in one line, with why, and skipped, so one bad folder never hides the others.
 
 Traps:
-- Runs are grouped by their folder name (`name`), not by config.json's method: the protocol-v1
-  folder `acder-baselines-clip` holds runs whose config now reads as method `acder` with
-  `target_clip="baselines"` (`config.upgrade_legacy`), and experiments/readings/ names its
-  folders after the setting under test (`sicm-raw`, ...).
-- A run's budget is the epochs its *first* command planned (`planned_epochs`): a protocol-v1 run
-  ended by `train --resume DIR --epochs N` has N in its config.
-- A live run has config.json but no progress.csv until its first evaluation; it is skipped
-  (and named) like a broken one, since it has nothing to read yet.
+- Runs are grouped by their folder name (`name`), not by config.json's method: the
+  protocol-v1 folder `acder-baselines-clip` holds runs whose config now reads as method
+  `acder` with `target_clip="baselines"` (`config.upgrade_legacy`), and
+  experiments/readings/ names its folders after the setting under test (`sicm-raw`,
+  ...).
+- A run's budget is the epochs its *first* command planned (`planned_epochs`): a
+  protocol-v1 run ended by `train --resume DIR --epochs N` has N in its config.
+- A live run has config.json but no progress.csv until its first evaluation; it is
+  skipped (and named) like a broken one, since it has nothing to read yet.
 """
+
 from __future__ import annotations
 
 import csv
@@ -27,7 +30,8 @@ from .config import Config, ConfigError, upgrade_legacy
 from .report import episodes_to_threshold, threshold
 
 REQUIRED_COLUMNS = ("episodes", "test_success")
-"""progress.csv columns every run has (`epoch` too since protocol v1, but not required)."""
+"""progress.csv columns every run has (`epoch` too since protocol v1,
+but not required)."""
 
 
 class RunError(ValueError):
@@ -35,7 +39,8 @@ class RunError(ValueError):
 
 
 def find_run_dirs(root: str | Path) -> list[Path]:
-    """Folders under `root` (and `root` itself) that hold a config.json or a progress.csv, sorted.
+    """Folders under `root` (and `root` itself) that hold a config.json or a
+    progress.csv, sorted.
 
     Hidden folders are left out."""
     root = Path(root)
@@ -48,7 +53,8 @@ def find_run_dirs(root: str | Path) -> list[Path]:
 
 
 def number(s):
-    """A progress.csv field as a float; '' stays '' (a column a method does not write)."""
+    """A progress.csv field as a float; '' stays ''
+    (a column a method does not write)."""
     try:
         return float(s)
     except (TypeError, ValueError):
@@ -58,8 +64,9 @@ def number(s):
 def read_progress(path: str | Path) -> list[dict]:
     """The rows of a progress.csv, numeric fields as floats.
 
-    Raises RunError when it is missing, has no `episodes` or `test_success` column, or a row
-    whose `episodes`/`test_success`/`epoch` is not a number or has more fields than the header."""
+    Raises RunError when it is missing, has no `episodes` or `test_success` column, or a
+    row whose `episodes`/`test_success`/`epoch` is not a number or has more fields than
+    the header."""
     path = Path(path)
     if not path.exists():
         raise RunError("no progress.csv yet (no evaluation written)")
@@ -73,11 +80,15 @@ def read_progress(path: str | Path) -> list[dict]:
             rows = []
             for i, row in enumerate(reader, 2):
                 if None in row:
-                    raise RunError(f"progress.csv line {i} has more fields than its header")
+                    raise RunError(
+                        f"progress.csv line {i} has more fields than its header"
+                    )
                 row = {k: number(v) for k, v in row.items()}
                 for c in REQUIRED_COLUMNS + (("epoch",) if "epoch" in header else ()):
                     if not isinstance(row[c], float):
-                        raise RunError(f"progress.csv line {i}: {c} {row[c]!r} is not a number")
+                        raise RunError(
+                            f"progress.csv line {i}: {c} {row[c]!r} is not a number"
+                        )
                 rows.append(row)
     except (OSError, UnicodeDecodeError, csv.Error) as e:
         raise RunError(f"progress.csv cannot be read ({type(e).__name__})") from None
@@ -85,7 +96,8 @@ def read_progress(path: str | Path) -> list[dict]:
 
 
 def read_json(path: Path, what: str) -> dict:
-    """A JSON object from `path`; RunError if it is missing, not JSON or not an object."""
+    """A JSON object from `path`; RunError if it is missing,
+    not JSON or not an object."""
     if not path.exists():
         raise RunError(f"no {what}")
     try:
@@ -98,8 +110,9 @@ def read_json(path: Path, what: str) -> dict:
 
 
 def read_config(d: Path) -> dict:
-    """config.json of run folder `d` (the whole file), its "config" upgraded to today's fields
-    (`config.upgrade_legacy`) and checked by `Config.validate`. RunError if it cannot be used."""
+    """config.json of run folder `d` (the whole file), its "config" upgraded to today's
+    fields (`config.upgrade_legacy`) and checked by `Config.validate`. RunError if it
+    cannot be used."""
     whole = read_json(d / "config.json", "config.json")
     cfg = whole.get("config")
     if not isinstance(cfg, dict):
@@ -116,38 +129,50 @@ def read_config(d: Path) -> dict:
 
 
 def epochs_option(command: str) -> int | None:
-    """N of `--epochs N` (or `--epochs=N`) in a command line; None if absent or unreadable."""
+    """N of `--epochs N` (or `--epochs=N`) in a command line;
+    None if absent or unreadable."""
     try:
         toks = shlex.split(command)
     except ValueError:
         return None
     for i, t in enumerate(toks):
-        v = toks[i + 1] if t == "--epochs" and i + 1 < len(toks) else t[9:] if t.startswith("--epochs=") else None
+        v = (
+            toks[i + 1]
+            if t == "--epochs" and i + 1 < len(toks)
+            else t[9:]
+            if t.startswith("--epochs=")
+            else None
+        )
         if v is not None:
             return int(v) if v.isdigit() else None
     return None
 
 
 def planned_epochs(config_json: dict) -> int | None:
-    """The epochs a run was started with, from its config.json (the whole file, not only "config").
+    """The epochs a run was started with, from its config.json (the whole file,
+    not only "config").
 
-    A run ended at an epoch by `train --resume DIR --epochs N` (protocol v1) has N in its config,
-    so the plan is read from the first command: its `--epochs`, else the config's value if no
-    resume changed it, else the Config default the command fell back on.
+    A run ended at an epoch by `train --resume DIR --epochs N` (protocol v1) has N in
+    its config, so the plan is read from the first command: its `--epochs`, else the
+    config's value if no resume changed it, else the Config default the command fell
+    back on.
     """
     first = epochs_option(config_json.get("command", ""))
     if first is not None:
         return first
-    if all(epochs_option(r.get("command", "")) is None for r in config_json.get("resumes", [])):
+    if all(
+        epochs_option(r.get("command", "")) is None
+        for r in config_json.get("resumes", [])
+    ):
         return config_json.get("config", {}).get("epochs")
     return Config.__dataclass_fields__["epochs"].default
 
 
 def how_it_ended(done: dict | None, planned: int | None) -> str | None:
-    """None (no done.json), 'stop rule' (the success held: stop_reason "success held", or
-    protocol v1's stopped_early before stop_reason was recorded), 'budget' (ran its planned
-    epochs) or 'cut' (ended before them otherwise: v1's "gap after first success", or a resume
-    with fewer epochs)."""
+    """None (no done.json), 'stop rule' (the success held: stop_reason "success held",
+    or protocol v1's stopped_early before stop_reason was recorded), 'budget' (ran its
+    planned epochs) or 'cut' (ended before them otherwise: v1's "gap after first
+    success", or a resume with fewer epochs)."""
     if done is None:
         return None
     reason = done.get("stop_reason")
@@ -156,36 +181,59 @@ def how_it_ended(done: dict | None, planned: int | None) -> str | None:
     if reason == "gap after first success":
         return "cut"
     epochs = done.get("epochs")
-    if planned is None or not isinstance(epochs, (int, float)) or epochs >= planned - 1e-9:
+    if (
+        planned is None
+        or not isinstance(epochs, (int, float))
+        or epochs >= planned - 1e-9
+    ):
         return "budget"
     return "cut"
 
 
 def read_run(d: str | Path) -> dict:
-    """One run folder as a dict; RunError (why) if its config.json or progress.csv cannot be read.
+    """One run folder as a dict; RunError (why) if its config.json or progress.csv
+    cannot be read.
 
-    Keys: env, name (the folder under <env>/), method (config's, upgraded), seed, dir, rows
-    (`read_progress`), config (upgraded "config"), planned_epochs, budget_epochs (the same,
-    else the config's epochs), budget (training episodes of budget_epochs), episodes_per_epoch
-    (cycles x episodes_per_cycle x workers), done (done.json present), done_info (its content,
-    or None), ended (`how_it_ended`), update_dtype.
+    Keys: env, name (the folder under <env>/), method (config's, upgraded), seed, dir,
+    rows (`read_progress`), config (upgraded "config"), planned_epochs, budget_epochs
+    (the same, else the config's epochs), budget (training episodes of budget_epochs),
+    episodes_per_epoch (cycles x episodes_per_cycle x workers), done (done.json
+    present), done_info (its content, or None), ended (`how_it_ended`), update_dtype.
     """
     d = Path(d)
     whole = read_config(d)
     rows = read_progress(d / "progress.csv")
-    done = read_json(d / "done.json", "done.json") if (d / "done.json").exists() else None
+    done = (
+        read_json(d / "done.json", "done.json") if (d / "done.json").exists() else None
+    )
     cfg = whole["config"]
     planned = planned_epochs(whole)
     seed = cfg.get("seed")
     if seed is None:
-        seed = int(d.name[4:]) if d.name.startswith("seed") and d.name[4:].isdigit() else d.name
+        seed = (
+            int(d.name[4:])
+            if d.name.startswith("seed") and d.name[4:].isdigit()
+            else d.name
+        )
     per_epoch = cfg["cycles"] * cfg["episodes_per_cycle"] * cfg["workers"]
     budget_epochs = planned or cfg["epochs"]
-    return dict(env=cfg.get("env", d.parent.parent.name), name=d.parent.name, method=cfg.get("method"),
-                seed=seed, dir=str(d), rows=rows, config=cfg, planned_epochs=planned,
-                budget_epochs=float(budget_epochs), budget=float(budget_epochs * per_epoch),
-                episodes_per_epoch=float(per_epoch), done=done is not None, done_info=done,
-                ended=how_it_ended(done, planned), update_dtype=cfg.get("update_dtype", "float32"))
+    return dict(
+        env=cfg.get("env", d.parent.parent.name),
+        name=d.parent.name,
+        method=cfg.get("method"),
+        seed=seed,
+        dir=str(d),
+        rows=rows,
+        config=cfg,
+        planned_epochs=planned,
+        budget_epochs=float(budget_epochs),
+        budget=float(budget_epochs * per_epoch),
+        episodes_per_epoch=float(per_epoch),
+        done=done is not None,
+        done_info=done,
+        ended=how_it_ended(done, planned),
+        update_dtype=cfg.get("update_dtype", "float32"),
+    )
 
 
 def stderr_line(message: str) -> None:
@@ -196,8 +244,8 @@ def stderr_line(message: str) -> None:
 def load_runs(root: str | Path, warn=stderr_line) -> list[dict]:
     """Every readable run under `root` (`read_run`), sorted by (env, name, seed).
 
-    A folder that cannot be read is passed to `warn` as one line, "skipped DIR: why", and left
-    out; `warn=None` drops the lines."""
+    A folder that cannot be read is passed to `warn` as one line, "skipped DIR: why",
+    and left out; `warn=None` drops the lines."""
     runs = []
     for d in find_run_dirs(root):
         try:
@@ -210,10 +258,10 @@ def load_runs(root: str | Path, warn=stderr_line) -> list[dict]:
 
 
 def how_ended(run: dict) -> str | None:
-    """Why a run of `load_runs` ended, in protocol v1's words: "early stop" (the stop rule),
-    "full budget", "hovering" (ended before its budget after it had reached its task's threshold:
-    the gap rule, or `train --resume DIR --epochs N`) or "cut short" (ended so before reaching
-    it). None while there is no done.json."""
+    """Why a run of `load_runs` ended, in protocol v1's words: "early stop" (the stop
+    rule), "full budget", "hovering" (ended before its budget after it had reached its
+    task's threshold: the gap rule, or `train --resume DIR --epochs N`) or "cut short"
+    (ended so before reaching it). None while there is no done.json."""
     ended = run["ended"]
     if ended is None:
         return None
@@ -223,14 +271,24 @@ def how_ended(run: dict) -> str | None:
         return "full budget"
     if (run.get("done_info") or {}).get("stop_reason") == "gap after first success":
         return "hovering"  # the gap rule counts from the first crossing: it was reached
-    thr = run["config"].get("success_threshold") or threshold(run["env"])  # the run's own rule
-    return "hovering" if episodes_to_threshold(run["rows"], thr) is not None else "cut short"
+    thr = run["config"].get("success_threshold") or threshold(
+        run["env"]
+    )  # the run's own rule
+    return (
+        "hovering"
+        if episodes_to_threshold(run["rows"], thr) is not None
+        else "cut short"
+    )
 
 
-def planned_cells(plan_path: str | Path, root: str | Path) -> dict[tuple[str, str], dict]:
-    """Seeds a plan file (`sweep.read_plan`) plans per (env, name) for run folders under `root`:
-    {(env, name): {"seeds": n, "hold": reason or ''}}. Raises sweep.PlanError on a bad plan."""
+def planned_cells(
+    plan_path: str | Path, root: str | Path
+) -> dict[tuple[str, str], dict]:
+    """Seeds a plan file (`sweep.read_plan`) plans per (env, name) for run folders under
+    `root`: {(env, name): {"seeds": n, "hold": reason or ''}}. Raises sweep.PlanError on
+    a bad plan."""
     from .sweep import read_plan
+
     root = Path(root).resolve()
     out: dict[tuple[str, str], dict] = {}
     for cell in read_plan(plan_path):

@@ -1,9 +1,11 @@
 """Dynamic initial-state selection (paper, section IV-B; Eq. 9).
 
-From each training minibatch, the transitions of episodes that ended in success are kept; the one
-with the largest intrinsic reward becomes a candidate start state (its full MuJoCo state after the
-transition, and the episode's goal). New episodes restart from a candidate with probability alpha.
+From each training minibatch, the transitions of episodes that ended in success are
+kept; the one with the largest intrinsic reward becomes a candidate start state (its
+full MuJoCo state after the transition, and the episode's goal). New episodes restart
+from a candidate with probability alpha.
 """
+
 from __future__ import annotations
 
 import math
@@ -15,19 +17,22 @@ import numpy as np
 def novel_start_ratio(success_rate: float, alpha0: float) -> float:
     """Eq. 9: alpha = alpha0 - 0.5 * (10e)^(success_rate - 1), clipped to [0, 1].
 
-    `10e` is read as 10 times Euler's number (DESIGN.md). With alpha0 = 0.8: 0.782 at success 0,
-    0.704 at 0.5, 0.3 at 1.
+    `10e` is read as 10 times Euler's number (book/departures.md, departure 14). With
+    alpha0 = 0.8: 0.782 at success 0, 0.704 at 0.5, 0.3 at 1.
     """
-    return float(min(1.0, max(0.0, alpha0 - 0.5 * (10 * math.e) ** (success_rate - 1.0))))
+    return float(
+        min(1.0, max(0.0, alpha0 - 0.5 * (10 * math.e) ** (success_rate - 1.0)))
+    )
 
 
 def select_candidate(r_int: np.ndarray, episode_success: np.ndarray) -> int | None:
-    """Row of the minibatch with the largest intrinsic reward among rows whose episode succeeded.
+    """Row of the minibatch with the largest intrinsic reward among rows whose
+    episode succeeded.
 
-    None when no row comes from a successful episode. Trap: r_int is clipped at eta (Eq. 4), and on
-    Push a quarter of the eligible rows sit at the clip, so the maximum is usually a tie; argmax
-    then takes the first tied row, and since minibatch rows are in random order, a random one
-    (`python -m acder_lite diagnose RUN` shows how often).
+    None when no row comes from a successful episode. Trap: r_int is clipped at eta
+    (Eq. 4), and on Push a quarter of the eligible rows sit at the clip, so the maximum
+    is usually a tie; argmax then takes the first tied row, and since minibatch rows are
+    in random order, a random one (`python -m acder_lite diagnose RUN` shows how often).
     """
     ok = np.flatnonzero(episode_success)
     if ok.size == 0:
@@ -36,7 +41,8 @@ def select_candidate(r_int: np.ndarray, episode_success: np.ndarray) -> int | No
 
 
 class StartStateSelector:
-    """A pool of the most recent candidates; `draw` picks the start of each new episode."""
+    """A pool of the most recent candidates;
+    `draw` picks the start of each new episode."""
 
     def __init__(self, pool_size: int, alpha0: float):
         self.pool: deque = deque(maxlen=pool_size)
@@ -51,14 +57,21 @@ class StartStateSelector:
         row = select_candidate(r_int, buffer.success[batch["ep"]])
         if row is not None:
             e, t = int(batch["ep"][row]), int(batch["t"][row])
-            self.pool.append(dict(state=buffer.state[e, t + 1].copy(), goal=buffer.g[e, t].copy(),
-                                  r_int=float(r_int[row])))
+            self.pool.append(
+                dict(
+                    state=buffer.state[e, t + 1].copy(),
+                    goal=buffer.g[e, t].copy(),
+                    r_int=float(r_int[row]),
+                )
+            )
         return row
 
     def draw(self, rng: np.random.Generator) -> dict | None:
-        """With probability alpha a uniformly chosen pool candidate, else None (normal reset).
+        """With probability alpha a uniformly chosen pool candidate,
+        else None (normal reset).
 
-        The uniform number is drawn every time, so the random stream does not depend on the pool.
+        The uniform number is drawn every time, so the random stream does not depend on
+        the pool.
         """
         u, k = rng.random(), rng.integers(0, 1 << 30)
         if self.pool and u < self.alpha:

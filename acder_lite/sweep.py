@@ -1,24 +1,28 @@
-"""Run a grid of (env, method, seed) training runs as Ray tasks: on a local Ray, or on a cluster.
+"""Run a grid of (env, method, seed) runs as Ray tasks: on a local Ray, or on a cluster.
 
-`python -m acder_lite sweep --envs FetchReach-v4 --methods her acder --seeds 0 1 --results R`
-trains one cell per task into `R/<env>/<method>/seed<k>`; `sweep --plan results/plan.toml` runs
-the cells a plan file declares (`read_plan`): the same command every session.
+`python -m acder_lite sweep --envs FetchReach-v4 --methods her acder --seeds 0 1
+--results R` trains one cell per task into `R/<env>/<method>/seed<k>`; `sweep --plan
+results/plan.toml` runs the cells a plan file declares (`read_plan`): the same command
+every session.
 
-Each cell is one Ray task reserving `--threads` CPUs, so Ray packs as many runs as fit. The task
-decides when it starts what its folder needs: nothing (`done.json`), `train --resume` (a
-`checkpoint.pt`) or a fresh `train --out`; so Ray's own retry after a lost worker (killed
-process, lost node) resumes the run from its last checkpoint, and the trainer's determinism makes
-the result equal to an uninterrupted run's. Training runs in the task's own worker process, which
-reports its pid in the first line it writes to `train.log`. Ctrl-C cancels the running tasks:
-each stops at once and keeps its last end-of-epoch checkpoint; the same command continues.
+Each cell is one Ray task reserving `--threads` CPUs, so Ray packs as many runs as fit.
+The task decides when it starts what its folder needs: nothing (`done.json`),
+`train --resume` (a `checkpoint.pt`) or a fresh `train --out`; so Ray's own retry after
+a lost worker (killed process, lost node) resumes the run from its last checkpoint, and
+the trainer's determinism makes the result equal to an uninterrupted run's. Training
+runs in the task's own worker process, which reports its pid in the first line it writes
+to `train.log`. Ctrl-C cancels the running tasks: each stops at once and keeps its last
+end-of-epoch checkpoint; the same command continues.
 
-Without `--address` the sweep starts a local Ray of its own (nothing to set up) and stops it at
-the end; with `--address auto` or `--address ray://HOST:PORT` it joins a running cluster, where
-the results folder must be shared storage that every node sees at the same path. Trap: a local
-Ray cannot be kept on the loopback interface: Ray 2.60 turns 127.0.0.1 into the node's own
-address (`services.resolve_ip_for_localhost`) and its gRPC servers listen on every interface;
-what guards them is Ray's token authentication, on by default.
+Without `--address` the sweep starts a local Ray of its own (nothing to set up) and
+stops it at the end; with `--address auto` or `--address ray://HOST:PORT` it joins a
+running cluster, where the results folder must be shared storage that every node sees at
+the same path. Trap: a local Ray cannot be kept on the loopback interface: Ray 2.60
+turns 127.0.0.1 into the node's own address (`services.resolve_ip_for_localhost`) and
+its gRPC servers listen on every interface; what guards them is Ray's token
+authentication, on by default.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -38,17 +42,19 @@ EXIT_INTERRUPTED = 130
 """Return code after Ctrl-C (128 + SIGINT), as a shell reports it."""
 
 MAX_RETRIES = 3
-"""Ray's retries of a cell whose worker process died (each retry resumes from the checkpoint)."""
+"""Ray's retries of a cell whose worker process died
+(each retry resumes from the checkpoint)."""
 
 START_ATTEMPTS = 3
 """How often the sweep tries to start its local Ray (each try has Ray's own 30 s)."""
 
 CONNECT_TIMEOUT_S = 5.0
-"""How long `--address HOST:PORT` may take to answer before the sweep gives up (exit 2)."""
+"""How long `--address HOST:PORT` may take to answer before the sweep gives
+up (exit 2)."""
 
 LOCK = ".sweep.lock"
-"""A run folder's lock file: held (flock) by the task training into it, so two sweeps never
-write one folder; the kernel releases it when the process dies."""
+"""A run folder's lock file: held (flock) by the task training into it, so two sweeps
+never write one folder; the kernel releases it when the process dies."""
 
 
 @dataclass
@@ -60,11 +66,13 @@ class Cell:
     seed: int
     out: Path
     action: str
-    """'run' (fresh), 'resume' (checkpoint.pt, no done.json) or 'skip' (see `plan_cell`)."""
+    """'run' (fresh), 'resume' (checkpoint.pt, no done.json) or 'skip'
+    (see `plan_cell`)."""
     note: str = ""
     """Why a cell is skipped, or what was found in its directory."""
     options: dict = field(default_factory=dict)
-    """Config fields this cell sets (a plan group's `config`), passed to train as --field value."""
+    """Config fields this cell sets (a plan group's `config`),
+    passed to train as --field value."""
     hold: str = ""
     """A plan group on hold: why (the cell is skipped with this note)."""
 
@@ -79,8 +87,9 @@ def run_dir(results: str | Path, env: str, method: str, seed: int) -> Path:
 
 
 def cell_state(out: Path) -> str:
-    """What a run folder holds: 'done' (done.json), 'interrupted' (checkpoint.pt), 'orphan'
-    (progress.csv, no checkpoint: committed results, or a run stopped before its first epoch) or 'new'."""
+    """What a run folder holds: 'done' (done.json), 'interrupted' (checkpoint.pt),
+    'orphan' (progress.csv, no checkpoint: committed results, or a run stopped before
+    its first epoch) or 'new'."""
     if (out / "done.json").exists():
         return "done"
     if (out / "checkpoint.pt").exists():
@@ -91,9 +100,14 @@ def cell_state(out: Path) -> str:
 
 
 def plan_cell(cell: Cell) -> Cell:
-    """`cell` with its action (and note) set from its config and what its folder holds."""
-    try:  # the one check of names and values: Config's own (an EBP cell on Reach, a bad option)
-        Config(**dict(cell.options, env=cell.env, method=cell.method, seed=cell.seed)).resolve()
+    """`cell` with its action (and note) set from its config and what its
+    folder holds."""
+    # the one check of names and values: Config's own (an EBP cell on Reach, a bad
+    # option)
+    try:
+        Config(
+            **dict(cell.options, env=cell.env, method=cell.method, seed=cell.seed)
+        ).resolve()
     except (ConfigError, TypeError) as e:
         cell.action, cell.note = "skip", str(e)
         return cell
@@ -105,8 +119,13 @@ def plan_cell(cell: Cell) -> Cell:
     elif state == "interrupted":
         cell.action, cell.note = "resume", "checkpoint.pt found"
     elif state == "orphan":
-        cell.action, cell.note = "skip", ("progress.csv without checkpoint.pt or done.json: nothing to "
-                                          "resume; remove the folder to start over")
+        cell.action, cell.note = (
+            "skip",
+            (
+                "progress.csv without checkpoint.pt or done.json: nothing to "
+                "resume; remove the folder to start over"
+            ),
+        )
     else:
         cell.action, cell.note = "run", ""
     return cell
@@ -114,29 +133,56 @@ def plan_cell(cell: Cell) -> Cell:
 
 def plan(envs, methods, seeds, results, options: dict | None = None) -> list[Cell]:
     """The grid in env-major order, each cell with its action (`plan_cell`)."""
-    return [plan_cell(Cell(env, method, seed, run_dir(results, env, method, seed), "", options=dict(options or {})))
-            for env in envs for method in methods for seed in seeds]
+    return [
+        plan_cell(
+            Cell(
+                env,
+                method,
+                seed,
+                run_dir(results, env, method, seed),
+                "",
+                options=dict(options or {}),
+            )
+        )
+        for env in envs
+        for method in methods
+        for seed in seeds
+    ]
 
 
 class PlanError(ValueError):
-    """A bad plan file or option; the message is one line naming what is wrong and what is allowed."""
+    """A bad plan file or option; the message is one line naming what is wrong and
+    what is allowed."""
 
 
-_GROUP_KEYS = {"envs", "methods", "seeds", "root", "name", "config", "queue", "hold", "note"}
+_GROUP_KEYS = {
+    "envs",
+    "methods",
+    "seeds",
+    "root",
+    "name",
+    "config",
+    "queue",
+    "hold",
+    "note",
+}
 
 
 def read_plan(path: str | Path) -> list[Cell]:
-    """The cells of a plan file (TOML), in the order they are to start, each with its action.
+    """The cells of a plan file (TOML), in the order they are to start,
+    each with its action.
 
-    A plan is a list of `[[group]]` tables, each a grid: `envs`, `methods`, `seeds` (lists);
-    `root` (folder of <env>/<name>/seed<k>, relative to the plan's own folder; default: that
-    folder); `name` (the folder under <env>/, default the method; needs one method); `config`
-    (Config fields the runs set, e.g. {sicm_input = "raw"}); `queue` (default "grid"); `hold`
-    (a reason: the group is planned but not started). A `[defaults]` table gives every group its
-    keys (a group's own win; `config` tables merge). Cells of different queues alternate, so
-    two queues share the cores; within a queue they keep the file's order.
+    A plan is a list of `[[group]]` tables, each a grid: `envs`, `methods`, `seeds`
+    (lists); `root` (folder of <env>/<name>/seed<k>, relative to the plan's own folder;
+    default: that folder); `name` (the folder under <env>/, default the method; needs
+    one method); `config` (Config fields the runs set, e.g. {sicm_input = "raw"});
+    `queue` (default "grid"); `hold` (a reason: the group is planned but not started). A
+    `[defaults]` table gives every group its keys (a group's own win; `config` tables
+    merge). Cells of different queues alternate, so two queues share the cores; within a
+    queue they keep the file's order.
     """
     import tomllib
+
     path = Path(path)
     try:
         with open(path, "rb") as f:
@@ -147,17 +193,29 @@ def read_plan(path: str | Path) -> list[Cell]:
         raise PlanError(f"plan {str(path)!r} is not valid TOML: {e}") from None
     groups = doc.get("group")
     if not isinstance(groups, list) or not groups:
-        raise PlanError(f"plan {str(path)!r} has no [[group]] tables; allowed: one or more")
+        raise PlanError(
+            f"plan {str(path)!r} has no [[group]] tables; allowed: one or more"
+        )
     defaults = doc.get("defaults", {})
     if not isinstance(defaults, dict) or set(defaults) - _GROUP_KEYS:
-        raise PlanError(f"plan {str(path)!r}: [defaults] may hold only: {', '.join(sorted(_GROUP_KEYS))}")
+        raise PlanError(
+            f"plan {str(path)!r}: [defaults] may hold only: "
+            f"{', '.join(sorted(_GROUP_KEYS))}"
+        )
     queues: dict[str, list[Cell]] = {}
     for i, g in enumerate(groups, 1):
         where = f"plan {str(path)!r}, group {i}"
-        g = {**defaults, **g, "config": {**defaults.get("config", {}), **g.get("config", {})}}
+        g = {
+            **defaults,
+            **g,
+            "config": {**defaults.get("config", {}), **g.get("config", {})},
+        }
         unknown = sorted(set(g) - _GROUP_KEYS)
         if unknown:
-            raise PlanError(f"{where}: unknown key {unknown[0]!r}; allowed: {', '.join(sorted(_GROUP_KEYS))}")
+            raise PlanError(
+                f"{where}: unknown key {unknown[0]!r}; allowed: "
+                f"{', '.join(sorted(_GROUP_KEYS))}"
+            )
         for key in ("envs", "methods", "seeds"):
             if not isinstance(g.get(key), list) or not g[key]:
                 raise PlanError(f"{where}: {key} must be a non-empty list")
@@ -165,7 +223,9 @@ def read_plan(path: str | Path) -> list[Cell]:
         if problem:
             raise PlanError(f"{where}: {problem}")
         if "name" in g and len(g["methods"]) != 1:
-            raise PlanError(f"{where}: name needs exactly one method, not {len(g['methods'])}")
+            raise PlanError(
+                f"{where}: name needs exactly one method, not {len(g['methods'])}"
+            )
         options = g["config"]
         try:
             Config(**dict(options, env=g["envs"][0], method=g["methods"][0])).resolve()
@@ -174,17 +234,34 @@ def read_plan(path: str | Path) -> list[Cell]:
         root = Path(os.path.normpath(path.parent / g.get("root", ".")))
         for env, method, seed in itertools.product(g["envs"], g["methods"], g["seeds"]):
             out = run_dir(root, env, g.get("name", method), seed)
-            cell = Cell(env, method, seed, out, "", options=dict(options), hold=str(g.get("hold", "")))
+            cell = Cell(
+                env,
+                method,
+                seed,
+                out,
+                "",
+                options=dict(options),
+                hold=str(g.get("hold", "")),
+            )
             queues.setdefault(str(g.get("queue", "grid")), []).append(plan_cell(cell))
     names = [c.name for q in queues.values() for c in q]
     dup = next((n for n in names if names.count(n) > 1), None)
     if dup:
-        raise PlanError(f"plan {str(path)!r}: the run folder {dup!r} is planned twice; allowed: once")
-    return [c for batch in itertools.zip_longest(*queues.values()) for c in batch if c is not None]
+        raise PlanError(
+            f"plan {str(path)!r}: the run folder {dup!r} "
+            "is planned twice; allowed: once"
+        )
+    return [
+        c
+        for batch in itertools.zip_longest(*queues.values())
+        for c in batch
+        if c is not None
+    ]
 
 
 def _check_names(envs, methods, seeds) -> str | None:
-    """Unknown names and repeated seeds: what Config cannot see, since it checks one cell."""
+    """Unknown names and repeated seeds: what Config cannot see,
+    since it checks one cell."""
     for env in envs:
         if env not in ENV_IDS:
             return f"unknown env {env!r}; allowed: {', '.join(ENV_IDS)}"
@@ -200,51 +277,109 @@ def _check_names(envs, methods, seeds) -> str | None:
 
 # ----- the options
 
-_PASSED = ("epochs", "workers", "eval_every_cycles", "success_threshold", "stop_patience", "stop_gap_episodes")
+_PASSED = (
+    "epochs",
+    "workers",
+    "eval_every_cycles",
+    "success_threshold",
+    "stop_patience",
+    "stop_gap_episodes",
+)
 """Sweep options that are Config fields, passed to every cell's train."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `python -m acder_lite sweep`."""
-    parser.add_argument("--plan", default=None, metavar="FILE",
-                        help="a plan file (TOML, see `read_plan`), e.g. results/plan.toml, instead of "
-                             "--envs/--methods/--seeds")
-    parser.add_argument("--envs", nargs="+", default=None, metavar="ENV",
-                        help="tasks, e.g. FetchReach-v4 FetchPush-v4")
-    parser.add_argument("--methods", nargs="+", default=None, metavar="METHOD",
-                        help="rows of the method table, e.g. her acder")
+    parser.add_argument(
+        "--plan",
+        default=None,
+        metavar="FILE",
+        help="a plan file (TOML, see `read_plan`), e.g. results/plan.toml, instead of "
+        "--envs/--methods/--seeds",
+    )
+    parser.add_argument(
+        "--envs",
+        nargs="+",
+        default=None,
+        metavar="ENV",
+        help="tasks, e.g. FetchReach-v4 FetchPush-v4",
+    )
+    parser.add_argument(
+        "--methods",
+        nargs="+",
+        default=None,
+        metavar="METHOD",
+        help="rows of the method table, e.g. her acder",
+    )
     parser.add_argument("--seeds", nargs="+", type=int, default=None, metavar="N")
-    parser.add_argument("--results", default="results", help="root of <env>/<method>/seed<k> (default: results)")
-    parser.add_argument("--address", default=None,
-                        help="a running Ray cluster: 'auto' or ray://HOST:PORT (default: start a local "
-                             "Ray for this sweep)")
-    parser.add_argument("--jobs", type=int, default=None,
-                        help="local Ray: runs at once (default: cores // threads); ignored on a cluster")
-    parser.add_argument("--threads", type=int, default=1,
-                        help="CPUs each cell reserves, and its torch threads (default: 1)")
+    parser.add_argument(
+        "--results",
+        default="results",
+        help="root of <env>/<method>/seed<k> (default: results)",
+    )
+    parser.add_argument(
+        "--address",
+        default=None,
+        help="a running Ray cluster: 'auto' or ray://HOST:PORT (default: start a local "
+        "Ray for this sweep)",
+    )
+    parser.add_argument(
+        "--jobs",
+        type=int,
+        default=None,
+        help="local Ray: runs at once (default: cores // threads); "
+        "ignored on a cluster",
+    )
+    parser.add_argument(
+        "--threads",
+        type=int,
+        default=1,
+        help="CPUs each cell reserves, and its torch threads (default: 1)",
+    )
     parser.add_argument("--epochs", type=int, default=None, help="passed to train")
     parser.add_argument("--workers", type=int, default=None, help="passed to train")
-    parser.add_argument("--eval-every-cycles", type=int, default=None, help="passed to train")
-    parser.add_argument("--success-threshold", type=float, default=None, help="passed to train")
-    parser.add_argument("--stop-patience", type=int, default=None, help="passed to train")
-    parser.add_argument("--stop-gap-episodes", type=int, default=None, help="passed to train")
-    parser.add_argument("--train-args", default="", metavar="'ARGS'",
-                        help="more options for train, one quoted string: --train-args='--cycles 2'")
-    parser.add_argument("--dry-run", action="store_true",
-                        help="print what each cell would do (run / resume / skip) and exit")
+    parser.add_argument(
+        "--eval-every-cycles", type=int, default=None, help="passed to train"
+    )
+    parser.add_argument(
+        "--success-threshold", type=float, default=None, help="passed to train"
+    )
+    parser.add_argument(
+        "--stop-patience", type=int, default=None, help="passed to train"
+    )
+    parser.add_argument(
+        "--stop-gap-episodes", type=int, default=None, help="passed to train"
+    )
+    parser.add_argument(
+        "--train-args",
+        default="",
+        metavar="'ARGS'",
+        help="more options for train, one quoted string: --train-args='--cycles 2'",
+    )
+    parser.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="print what each cell would do (run / resume / skip) and exit",
+    )
 
 
 def passed_options(args) -> dict:
     """The Config fields the sweep's own options set (`_PASSED`), those given."""
-    return {name: getattr(args, name) for name in _PASSED if getattr(args, name) is not None}
+    return {
+        name: getattr(args, name) for name in _PASSED if getattr(args, name) is not None
+    }
 
 
 def check_args(args) -> str | None:
-    """The first problem with the options, as one line, or None. Fills the default of jobs."""
+    """The first problem with the options, as one line, or None.
+    Fills the default of jobs."""
     grid = [args.envs, args.methods, args.seeds]
     if args.plan is not None:
         if any(x is not None for x in grid):
-            return "--plan FILE and --envs/--methods/--seeds exclude each other; allowed: one of them"
+            return (
+                "--plan FILE and --envs/--methods/--seeds "
+                "exclude each other; allowed: one of them"
+            )
     elif any(x is None for x in grid):
         return "--envs, --methods and --seeds are required (or --plan FILE)"
     else:
@@ -266,28 +401,44 @@ def check_args(args) -> str | None:
     except ValueError as e:
         return f"--train-args cannot be parsed: {e}"
     if any(a in ("--out", "--resume") for a in extra):
-        return "--train-args may not hold --out or --resume; the sweep sets them per cell"
+        return (
+            "--train-args may not hold --out or --resume; the sweep sets them per cell"
+        )
     return None
 
 
 def check_folders(cells: list[Cell]) -> str | None:
-    """A run folder that cannot be one (it, or a folder above it, is a file), as one line."""
+    """A run folder that cannot be one (it, or a folder above it, is a file),
+    as one line."""
     for c in cells:
         for p in [c.out, *c.out.parents]:
             if p.exists():
                 if not p.is_dir():
-                    return f"results folder {str(p)!r} is a file; allowed: a folder (or a path not yet there)"
+                    return (
+                        f"results folder {str(p)!r} is a file; "
+                        "allowed: a folder (or a path not yet there)"
+                    )
                 break
     return None
 
 
 def train_argv(cell: Cell, args, resume: bool) -> list[str]:
-    """The `acder_lite train` arguments of one cell: its options, the sweep's, --train-args.
+    """The `acder_lite train` arguments of one cell: its options,
+    the sweep's, --train-args.
 
-    A resumed cell gets `--resume DIR` and the same options as a fresh one: train accepts a
-    changed epochs/threads/stop option and refuses (exit 2, in train.log) any other change.
+    A resumed cell gets `--resume DIR` and the same options as a fresh one: train
+    accepts a changed epochs/threads/stop option and refuses (exit 2, in train.log) any
+    other change.
     """
-    argv = ["train", "--env", cell.env, "--method", cell.method, "--seed", str(cell.seed)]
+    argv = [
+        "train",
+        "--env",
+        cell.env,
+        "--method",
+        cell.method,
+        "--seed",
+        str(cell.seed),
+    ]
     argv += ["--resume", str(cell.out)] if resume else ["--out", str(cell.out)]
     options = {**cell.options, **passed_options(args), "threads": args.threads}
     for name, value in options.items():
@@ -297,45 +448,66 @@ def train_argv(cell: Cell, args, resume: bool) -> list[str]:
 
 # ----- the task (runs in a Ray worker process)
 
-def train_cell(cell: Cell, args) -> dict:
-    """Train one cell in this process: fresh, resumed or skipped, decided now from its folder.
 
-    stdout and stderr go to `DIR/train.log`, whose first line of each attempt names this pid.
-    Returns dict(status, pid, attempts, log_tail).
+def train_cell(cell: Cell, args) -> dict:
+    """Train one cell in this process: fresh, resumed or skipped,
+    decided now from its folder.
+
+    stdout and stderr go to `DIR/train.log`, whose first line of each attempt names this
+    pid. Returns dict(status, pid, attempts, log_tail).
     """
     import fcntl
     from . import cli
+
     cell.out.mkdir(parents=True, exist_ok=True)
     lock = open(cell.out / LOCK, "w")
     try:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:
-        return dict(status="skipped: another sweep trains into this folder", pid=os.getpid(), attempts=0, log_tail="")
+        return dict(
+            status="skipped: another sweep trains into this folder",
+            pid=os.getpid(),
+            attempts=0,
+            log_tail="",
+        )
     state = cell_state(cell.out)
     if state == "done":
         return dict(status="done", pid=os.getpid(), attempts=0, log_tail="")
     if state == "orphan":
-        return dict(status="FAILED: progress.csv without checkpoint.pt; remove the folder to start over",
-                    pid=os.getpid(), attempts=0, log_tail="")
+        return dict(
+            status="FAILED: progress.csv without checkpoint.pt; "
+            "remove the folder to start over",
+            pid=os.getpid(),
+            attempts=0,
+            log_tail="",
+        )
     argv = train_argv(cell, args, resume=state == "interrupted")
     log_path = cell.out / "train.log"
     with open(log_path, "a") as log, _redirected(log):
-        print(f"# {time.strftime('%Y-%m-%d %H:%M:%S')} sweep: pid {os.getpid()}: "
-              f"python -m acder_lite {shlex.join(argv)}", flush=True)
+        print(
+            f"# {time.strftime('%Y-%m-%d %H:%M:%S')} sweep: pid {os.getpid()}: "
+            f"python -m acder_lite {shlex.join(argv)}",
+            flush=True,
+        )
         try:
             rc = cli.main(argv)
         except KeyboardInterrupt:  # cancelled before train installed its own handler
             rc = EXIT_INTERRUPTED
         sys.stdout.flush()
         sys.stderr.flush()
-    attempts = sum(line.startswith("# ") and " sweep: pid " in line for line in open(log_path, errors="replace"))
+    attempts = sum(
+        line.startswith("# ") and " sweep: pid " in line
+        for line in open(log_path, errors="replace")
+    )
     if rc == 0 and (cell.out / "done.json").exists():
         status = "done"
     elif rc == EXIT_INTERRUPTED:
         status = "interrupted"
     else:
         status = f"FAILED rc={rc}"
-    return dict(status=status, pid=os.getpid(), attempts=attempts, log_tail=_last_line(log_path))
+    return dict(
+        status=status, pid=os.getpid(), attempts=attempts, log_tail=_last_line(log_path)
+    )
 
 
 @contextlib.contextmanager
@@ -356,7 +528,8 @@ def _redirected(log):
 
 
 def _last_line(path: Path) -> str:
-    """The last non-empty line of a log (progress-bar redraws split on carriage returns)."""
+    """The last non-empty line of a log (progress-bar redraws split on
+    carriage returns)."""
     try:
         with open(path, "rb") as f:
             f.seek(max(0, os.path.getsize(path) - 4096))
@@ -369,12 +542,14 @@ def _last_line(path: Path) -> str:
 
 # ----- the driver
 
+
 def _say(msg: str) -> None:
     print(f"sweep: {msg}", flush=True)
 
 
 def _check_address(address: str) -> str | None:
-    """None if a Ray cluster answers at `address` ('auto' is left to Ray), else one line."""
+    """None if a Ray cluster answers at `address` ('auto' is left to Ray),
+    else one line."""
     if address == "auto":
         return None
     hostport = address.split("://", 1)[-1]
@@ -384,47 +559,72 @@ def _check_address(address: str) -> str | None:
     try:
         socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT_S).close()
     except OSError as e:
-        return f"--address={address!r} does not answer within {CONNECT_TIMEOUT_S:g} s ({e.strerror or e})"
+        return (
+            f"--address={address!r} does not answer within "
+            f"{CONNECT_TIMEOUT_S:g} s ({e.strerror or e})"
+        )
     return None
 
 
 def _connect(args):
     """Start a local Ray (`--jobs` x `--threads` CPUs), or join `--address`."""
     import ray
+
     os.environ.setdefault("RAY_DEDUP_LOGS", "0")
-    quiet = dict(include_dashboard=False, log_to_driver=False, configure_logging=True,
-                 logging_level="ERROR")
-    # The package must be importable in the workers from any cwd (a test runs the sweep elsewhere).
+    quiet = dict(
+        include_dashboard=False,
+        log_to_driver=False,
+        configure_logging=True,
+        logging_level="ERROR",
+    )
+    # The package must be importable in the workers from any cwd
+    # (a test runs the sweep elsewhere).
     root = str(Path(__file__).resolve().parent.parent)
-    runtime_env = {"env_vars": {"PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}}
+    runtime_env = {
+        "env_vars": {"PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    }
     if args.address:
         return ray.init(address=args.address, runtime_env=runtime_env, **quiet)
-    # address="local": always a Ray of our own (without it ray.init may join a cluster that
-    # `ray start` left running, or RAY_ADDRESS names). Trap: Ray gives its raylet a fixed 30 s to
-    # register (node.py), which a machine busy with training can miss: try again.
+    # address="local": always a Ray of our own (without it ray.init may join a cluster
+    # that `ray start` left running, or RAY_ADDRESS names). Trap: Ray gives its raylet a
+    # fixed 30 s to register (node.py), which a machine busy with training can
+    # miss: try again.
     for attempt in range(1, START_ATTEMPTS + 1):
         try:
-            return ray.init(address="local", num_cpus=args.jobs * args.threads,
-                            object_store_memory=100 * 2**20, runtime_env=runtime_env, **quiet)
+            return ray.init(
+                address="local",
+                num_cpus=args.jobs * args.threads,
+                object_store_memory=100 * 2**20,
+                runtime_env=runtime_env,
+                **quiet,
+            )
         except Exception as e:  # Ray raises a bare Exception for this
             if "timed out during startup" not in str(e) or attempt == START_ATTEMPTS:
                 raise
             ray.shutdown()
-            _say(f"the local Ray did not start in time (attempt {attempt} of {START_ATTEMPTS}); trying again")
+            _say(
+                f"the local Ray did not start in time (attempt {attempt} of "
+                f"{START_ATTEMPTS}); trying again"
+            )
 
 
 def run(args) -> int:
-    """Plan the grid and run it on Ray; 0 if every cell finished, 1 if one failed, 2 on bad
-    input, 130 on Ctrl-C (every running cell keeps its last checkpoint)."""
+    """Plan the grid and run it on Ray; 0 if every cell finished, 1 if one failed, 2 on
+    bad input, 130 on Ctrl-C (every running cell keeps its last checkpoint)."""
+
     def bad(msg):
         print(f"error: sweep: {msg}", file=sys.stderr)
         return 2
+
     problem = check_args(args)
     if problem:
         return bad(problem)
     try:
-        cells = read_plan(args.plan) if args.plan is not None else plan(
-            args.envs, args.methods, args.seeds, args.results)
+        cells = (
+            read_plan(args.plan)
+            if args.plan is not None
+            else plan(args.envs, args.methods, args.seeds, args.results)
+        )
     except PlanError as e:
         return bad(e)
     problem = check_folders(cells)
@@ -432,10 +632,17 @@ def run(args) -> int:
         return bad(problem)
     if args.dry_run:
         for c in cells:
-            print(f"{c.action:<6} {c.name:<40} {c.out}" + (f"  ({c.note})" if c.note else ""))
-        counts = {a: sum(c.action == a for c in cells) for a in ("run", "resume", "skip")}
-        _say(f"dry run: {counts['run']} to run, {counts['resume']} to resume, {counts['skip']} to skip; "
-             f"jobs={args.jobs} threads={args.threads}")
+            print(
+                f"{c.action:<6} {c.name:<40} {c.out}"
+                + (f"  ({c.note})" if c.note else "")
+            )
+        counts = {
+            a: sum(c.action == a for c in cells) for a in ("run", "resume", "skip")
+        }
+        _say(
+            f"dry run: {counts['run']} to run, {counts['resume']} to resume, "
+            f"{counts['skip']} to skip; jobs={args.jobs} threads={args.threads}"
+        )
         return 0
     if args.address:
         problem = _check_address(args.address)
@@ -449,16 +656,25 @@ def run(args) -> int:
         _say(f"nothing to run: {len(cells)} skipped")
         return 0
     import ray
+
     try:
         _connect(args)
     except (ConnectionError, RuntimeError, ValueError) as e:
         if not args.address:
             raise
-        return bad(f"--address={args.address!r}: no Ray cluster there ({str(e).splitlines()[0][:160]})")
+        return bad(
+            f"--address={args.address!r}: no Ray cluster there "
+            f"({str(e).splitlines()[0][:160]})"
+        )
     except Exception as e:  # the local Ray's start timed out START_ATTEMPTS times
-        print(f"error: sweep: the local Ray did not start: {str(e).splitlines()[0][:200]}", file=sys.stderr)
+        print(
+            "error: sweep: the local Ray did not start: "
+            f"{str(e).splitlines()[0][:200]}",
+            file=sys.stderr,
+        )
         return 1
     from .signals import interrupt_on_signals
+
     interrupt_on_signals()  # `kill PID` of a background sweep cancels its cells cleanly
     try:
         return _drive(todo, args, len(cells) - len(todo))
@@ -469,13 +685,25 @@ def run(args) -> int:
 def _drive(todo: list[Cell], args, skipped: int) -> int:
     import ray
     from tqdm import tqdm
+
     # max_calls=1: a fresh worker process per cell (a run's replay buffer is gigabytes)
-    task = ray.remote(max_calls=1)(train_cell).options(num_cpus=args.threads, max_retries=MAX_RETRIES)
+    task = ray.remote(max_calls=1)(train_cell).options(
+        num_cpus=args.threads, max_retries=MAX_RETRIES
+    )
     refs = {task.remote(c, args): c for c in todo}
-    _say(f"{len(todo)} cells ({sum(c.action == 'resume' for c in todo)} to resume), "
-         f"threads={args.threads} each" + ("" if args.address else f", local Ray of {args.jobs * args.threads} CPUs"))
+    _say(
+        f"{len(todo)} cells ({sum(c.action == 'resume' for c in todo)} to resume), "
+        f"threads={args.threads} each"
+        + ("" if args.address else f", local Ray of {args.jobs * args.threads} CPUs")
+    )
     counts = dict(done=0, failed=0, interrupted=0)
-    bar = tqdm(total=len(todo), unit="cell", dynamic_ncols=True, file=sys.stderr, disable=not sys.stderr.isatty())
+    bar = tqdm(
+        total=len(todo),
+        unit="cell",
+        dynamic_ncols=True,
+        file=sys.stderr,
+        disable=not sys.stderr.isatty(),
+    )
     t0 = time.monotonic()
     try:
         while refs:
@@ -483,35 +711,56 @@ def _drive(todo: list[Cell], args, skipped: int) -> int:
             for ref in ready:
                 _finish(refs.pop(ref), ref, counts, bar, t0)
     except KeyboardInterrupt:
-        _say(f"interrupt: cancelling {len(refs)} cell(s); each keeps its last checkpoint")
+        _say(
+            f"interrupt: cancelling {len(refs)} cell(s); each keeps its last checkpoint"
+        )
         for ref in refs:
             ray.cancel(ref)
         for ref, cell in list(refs.items()):
             _finish(cell, ref, counts, bar, t0)
         bar.close()
-        _say(f"interrupted: {counts['done']} finished; re-run the same command to continue")
+        _say(
+            f"interrupted: {counts['done']} finished; "
+            "re-run the same command to continue"
+        )
         return EXIT_INTERRUPTED
     bar.close()
-    _say(f"all done: {counts['done']} finished, {counts['failed']} failed, "
-         + (f"{counts['interrupted']} interrupted (re-run the same command to resume), " if counts["interrupted"] else "")
-         + f"{skipped} skipped")
+    _say(
+        f"all done: {counts['done']} finished, {counts['failed']} failed, "
+        + (
+            f"{counts['interrupted']} interrupted (re-run the same command to resume), "
+            if counts["interrupted"]
+            else ""
+        )
+        + f"{skipped} skipped"
+    )
     return 1 if counts["failed"] or counts["interrupted"] else 0
 
 
 def _finish(cell: Cell, ref, counts: dict, bar, t0: float) -> None:
     """Report one cell that ended (its task's result, or why there is none)."""
     import ray
+
     try:
         r = ray.get(ref)
     except (ray.exceptions.TaskCancelledError, KeyboardInterrupt):
         r = dict(status="interrupted", attempts=0, log_tail="")
     except ray.exceptions.RayError as e:
-        r = dict(status=f"FAILED: {type(e).__name__}", attempts=0, log_tail=_last_line(cell.out / "train.log"))
+        r = dict(
+            status=f"FAILED: {type(e).__name__}",
+            attempts=0,
+            log_tail=_last_line(cell.out / "train.log"),
+        )
     status = r["status"]
-    key = "done" if status in ("done",) or status.startswith("skipped") else (
-        "interrupted" if status == "interrupted" else "failed")
+    key = (
+        "done"
+        if status in ("done",) or status.startswith("skipped")
+        else ("interrupted" if status == "interrupted" else "failed")
+    )
     counts[key] += 1
     bar.update(1)
     more = f" (attempts {r['attempts']})" if r.get("attempts", 0) > 1 else ""
-    tail = f": {r['log_tail']} (see {cell.out / 'train.log'})" if key == "failed" else ""
+    tail = (
+        f": {r['log_tail']} (see {cell.out / 'train.log'})" if key == "failed" else ""
+    )
     _say(f"finish {cell.name}: {status}{tail} after {time.monotonic() - t0:.0f}s{more}")

@@ -1,16 +1,17 @@
-"""Table I of the paper from our runs: episodes until the mean test success crosses the threshold.
+"""Table I from our runs: episodes until the mean test success crosses the threshold.
 
-`python -m acder_lite table --results results` reads every run under the folder (`runs`),
-computes both statistics of every (task, method) cell (`report`: the mean curve's first
-crossing with a bootstrap interval, and the per-seed crossings) and prints them beside the
-paper's Table I, with the HER/ACDER ratios. The seed counts are read against the plan file
-(`<results>/plan.toml`, or `--plan FILE`) where there is one. `--results experiments/protocol-v1`
-reads the earlier runs the same way.
+`python -m acder_lite table --results results` reads every run under the folder
+(`runs`), computes both statistics of every (task, method) cell (`report`: the mean
+curve's first crossing with a bootstrap interval, and the per-seed crossings) and prints
+them beside the paper's Table I, with the HER/ACDER ratios. The seed counts are read
+against the plan file (`<results>/plan.toml`, or `--plan FILE`) where there is one.
+`--results experiments/protocol-v1` reads the earlier runs the same way.
 
-This module only renders (markdown, HTML for the book, sentences for its prose) and runs the
-CLI; the names the book and the trainer import from here (`load_runs`, `PAPER_TABLE_I`,
-`episodes_to_threshold`, ...) are the ones of `runs` and `report`.
+This module only renders (markdown, HTML for the book, sentences for its prose) and runs
+the CLI; the names the book and the trainer import from here (`load_runs`,
+`PAPER_TABLE_I`, `episodes_to_threshold`, ...) are the ones of `runs` and `report`.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -20,30 +21,62 @@ import math
 import sys
 from pathlib import Path
 
-# Also imported from here by the book, the trainer and tests/test_trainer.py: PAPER_TABLE_I,
-# TASKS, SUCCESS_TOL, threshold, episodes_to_threshold, learning_curves (report) and load_runs,
-# read_progress, planned_epochs, how_ended (runs).
-from .report import (ABLATIONS, PAPER_EPISODES_PER_EPOCH, PAPER_TABLE_I, SUCCESS_TOL, TASKS,  # noqa: F401
-                     CellStat, RatioStat, episodes_to_threshold, grid_cells, learning_curves, ratios,
-                     summarize, threshold)
+# Also imported from here by the book, the trainer and tests/test_trainer.py:
+# PAPER_TABLE_I, TASKS, SUCCESS_TOL, threshold, episodes_to_threshold, learning_curves
+# (report) and load_runs, read_progress, planned_epochs, how_ended (runs).
+from .report import (
+    ABLATIONS,
+    PAPER_EPISODES_PER_EPOCH,
+    PAPER_TABLE_I,
+    SUCCESS_TOL,
+    TASKS,  # noqa: F401
+    CellStat,
+    RatioStat,
+    episodes_to_threshold,
+    grid_cells,
+    learning_curves,
+    ratios,
+    summarize,
+    threshold,
+)
 from .runs import how_ended, load_runs, planned_cells, planned_epochs, read_progress  # noqa: F401
 
 METHOD_LABELS = {
-    "ddpg": "DDPG", "her": "DDPG+HER", "her-icm": "DDPG+HER+ICM", "her-per": "DDPG+HER+PER",
-    "her-ebp": "DDPG+HER+EBP", "acder": "DDPG+ACDER",
-    "acder-no-curiosity": "ACDER w/o curiosity", "acder-no-goal-factor": "ACDER w/o goal factor",
+    "ddpg": "DDPG",
+    "her": "DDPG+HER",
+    "her-icm": "DDPG+HER+ICM",
+    "her-per": "DDPG+HER+PER",
+    "her-ebp": "DDPG+HER+EBP",
+    "acder": "DDPG+ACDER",
+    "acder-no-curiosity": "ACDER w/o curiosity",
+    "acder-no-goal-factor": "ACDER w/o goal factor",
     "acder-no-start-states": "ACDER w/o start states",
     "acder-baselines-clip": "ACDER with Baselines' clip (protocol v1)",
-    "sicm-normalised": "ACDER, S-ICM on normalised (o, g)", "sicm-raw": "ACDER, S-ICM on raw (o, g)",
-    "sicm-raw-episode-goal": "ACDER, S-ICM on raw (o, g), restarts keep the episode's goal",
+    "sicm-normalised": "ACDER, S-ICM on normalised (o, g)",
+    "sicm-raw": "ACDER, S-ICM on raw (o, g)",
+    "sicm-raw-episode-goal": "ACDER, S-ICM on raw (o, g), "
+    "restarts keep the episode's goal",
 }
-"""How the paper names each method (folder names: methods, and our experiments' names)."""
+"""How the paper names each method (folder names: methods,
+and our experiments' names)."""
 
-TASK_LABELS = {"FetchReach-v4": "Reach", "FetchPush-v4": "Push", "FetchPickAndPlace-v4": "Pick&Place",
-               "FetchSlide-v4": "Slide", "FetchPushMultiStep-v0": "Multi-step Push"}
+TASK_LABELS = {
+    "FetchReach-v4": "Reach",
+    "FetchPush-v4": "Push",
+    "FetchPickAndPlace-v4": "Pick&Place",
+    "FetchSlide-v4": "Slide",
+    "FetchPushMultiStep-v0": "Multi-step Push",
+}
 
-HEADER = ("Task", "Method", "Seeds", "Mean curve", "95% interval (resamples crossing)",
-          "Per seed: median (range), crossed", "Paper")
+HEADER = (
+    "Task",
+    "Method",
+    "Seeds",
+    "Mean curve",
+    "95% interval (resamples crossing)",
+    "Per seed: median (range), crossed",
+    "Paper",
+)
 
 
 def label(name: str) -> str:
@@ -77,9 +110,14 @@ def seeds_text(c: CellStat) -> str:
 
 
 def units(c: CellStat, epochs: float | None) -> str:
-    """Epochs in Table I's unit, with our own episodes in brackets where an epoch is not 400."""
+    """Epochs in Table I's unit, with our own episodes in brackets where an
+    epoch is not 400."""
     text = episodes(c.paper_units(epochs))
-    if epochs is not None and math.isfinite(epochs) and c.episodes_per_epoch not in (None, PAPER_EPISODES_PER_EPOCH):
+    if (
+        epochs is not None
+        and math.isfinite(epochs)
+        and c.episodes_per_epoch not in (None, PAPER_EPISODES_PER_EPOCH)
+    ):
         text += f" (ours {episodes(c.our_episodes(epochs))})"
     return text
 
@@ -97,7 +135,9 @@ def mean_text(c: CellStat) -> str:
     else:
         text = c.why
     if c.bf16:
-        text += " · bfloat16 update" + ("" if c.bf16 == c.n else f" in {c.bf16} of {c.n} seeds")
+        text += " · bfloat16 update" + (
+            "" if c.bf16 == c.n else f" in {c.bf16} of {c.n} seeds"
+        )
     return text
 
 
@@ -106,17 +146,23 @@ def interval_text(c: CellStat) -> str:
         return "–"
     if c.n == 1:
         return "– (one seed)"
-    lo, hi = episodes(c.paper_units(c.low)), episodes(c.paper_units(c.high))  # Table I's unit
+    lo, hi = (
+        episodes(c.paper_units(c.low)),
+        episodes(c.paper_units(c.high)),
+    )  # Table I's unit
     return f"{lo} – {hi} ({c.share_crossing:.0%})"
 
 
 def per_seed_text(c: CellStat) -> str:
     if not c.n:
         return "–"
-    missing = "not yet" if c.unfinished else "not crossed"  # a seed still training may cross
+    missing = (
+        "not yet" if c.unfinished else "not crossed"
+    )  # a seed still training may cross
 
     def one(x):
         return missing if x is None or math.isinf(x) else episodes(c.paper_units(x))
+
     if c.n == 1:
         return f"{one(c.seed_median)}, {c.k}/1"
     return f"{one(c.seed_median)} ({one(c.seed_low)} – {one(c.seed_high)}), {c.k}/{c.n}"
@@ -124,8 +170,18 @@ def per_seed_text(c: CellStat) -> str:
 
 def table_rows(cells: list[CellStat]) -> tuple[tuple, list[tuple]]:
     """(header, rows) of Table I: one row per cell."""
-    rows = [(task_label(c.env), f"{label(c.name)} (`{c.name}`)", seeds_text(c), mean_text(c),
-             interval_text(c), per_seed_text(c), episodes(c.paper)) for c in cells]
+    rows = [
+        (
+            task_label(c.env),
+            f"{label(c.name)} (`{c.name}`)",
+            seeds_text(c),
+            mean_text(c),
+            interval_text(c),
+            per_seed_text(c),
+            episodes(c.paper),
+        )
+        for c in cells
+    ]
     return HEADER, rows
 
 
@@ -143,11 +199,15 @@ def ratio_text(r: RatioStat) -> str:
 
 
 def ratio_rows(rs: list[RatioStat]) -> tuple[tuple, list[tuple]]:
-    """(header, rows) of the HER/ACDER ratios: ours (mean curve, 95% interval) and the paper's."""
+    """(header, rows) of the HER/ACDER ratios: ours (mean curve,
+    95% interval) and the paper's."""
     header = ("HER / ACDER episodes",) + tuple(task_label(r.env) for r in rs)
-    return header, [("ours: mean curve [95% interval]",) + tuple(ratio_text(r) for r in rs),
-                    ("ours: per-seed medians",) + tuple("–" if r.seed_ratio is None else f"{r.seed_ratio:.1f}" for r in rs),
-                    ("paper",) + tuple("–" if r.paper is None else f"{r.paper:.1f}" for r in rs)]
+    return header, [
+        ("ours: mean curve [95% interval]",) + tuple(ratio_text(r) for r in rs),
+        ("ours: per-seed medians",)
+        + tuple("–" if r.seed_ratio is None else f"{r.seed_ratio:.1f}" for r in rs),
+        ("paper",) + tuple("–" if r.paper is None else f"{r.paper:.1f}" for r in rs),
+    ]
 
 
 def to_markdown(header, rows) -> str:
@@ -158,25 +218,33 @@ def to_markdown(header, rows) -> str:
 
 
 def to_html(header, rows) -> str:
-    """The same table as HTML: the book renders it as a table (myst-nb shows a markdown output's
-    pipes as text, since its markdown outputs are CommonMark, which has no tables)."""
+    """The same table as HTML: the book renders it as a table (myst-nb shows a markdown
+    output's pipes as text, since its markdown outputs are CommonMark, which has no
+    tables)."""
+
     def cell(tag, x):
         text = html.escape(str(x))
         while text.count("`") >= 2:  # `name` -> <code>name</code>
             text = text.replace("`", "<code>", 1).replace("`", "</code>", 1)
         return f"<{tag}>{text}</{tag}>"
+
     head = "".join(cell("th", h) for h in header)
-    body = "".join("<tr>" + "".join(cell("td", x) for x in row) + "</tr>" for row in rows)
+    body = "".join(
+        "<tr>" + "".join(cell("td", x) for x in row) + "</tr>" for row in rows
+    )
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
-CAPTION = ("Training episodes until the mean test success over seeds first reaches the threshold "
-           "(Reach 100%, Push and Pick&Place 95%): the mean curve at the epoch evaluations, linearly "
-           "interpolated, a seed stopped by the stop rule carrying its last 5 evaluations' mean forward; "
-           "in Table I's unit of 400 episodes an epoch (where our epoch holds fewer, our own episodes in "
-           "brackets). Beside it a 95% bootstrap interval over seeds (resampled with replacement; the share "
-           "of resamples whose mean curve crosses; 'beyond budget' where more than 2.5% never cross) and "
-           "each seed's own first crossing.")
+CAPTION = (
+    "Training episodes until the mean test success over seeds first reaches the "
+    "threshold (Reach 100%, Push and Pick&Place 95%): the mean curve at the epoch "
+    "evaluations, linearly interpolated, a seed stopped by the stop rule carrying its "
+    "last 5 evaluations' mean forward; in Table I's unit of 400 episodes an epoch "
+    "(where our epoch holds fewer, our own episodes in brackets). Beside it a 95% "
+    "bootstrap interval over seeds (resampled with replacement; the share of resamples "
+    "whose mean curve crosses; 'beyond budget' where more than 2.5% never cross) and "
+    "each seed's own first crossing."
+)
 
 
 def markdown(cells: list[CellStat]) -> str:
@@ -198,30 +266,50 @@ def ratio_sentence(r: RatioStat) -> str:
 
 
 def verdict(rs: list[RatioStat]) -> str:
-    """Whether the paper's HER/ACDER ratio lies inside our 95% interval, task by task, and what
-    that says about its factor of five."""
+    """Whether the paper's HER/ACDER ratio lies inside our 95% interval, task by task,
+    and what that says about its factor of five."""
     where = {"inside": [], "above": [], "below": []}
     for r in rs:
         if r.ours is None or r.paper is None or r.low is None or math.isnan(r.low):
             continue
-        key = "inside" if r.low <= r.paper <= r.high else "above" if r.paper > r.high else "below"
-        where[key].append(f"{task_label(r.env)} ({r.paper:.1f} against our {r.ours:.1f})")
+        key = (
+            "inside"
+            if r.low <= r.paper <= r.high
+            else "above"
+            if r.paper > r.high
+            else "below"
+        )
+        where[key].append(
+            f"{task_label(r.env)} ({r.paper:.1f} against our {r.ours:.1f})"
+        )
     if not any(where.values()):
-        return ("We cannot say yet whether the paper's factor of five reproduces: no task has both "
-                "HER and ACDER past the threshold.")
+        return (
+            "We cannot say yet whether the paper's factor of five reproduces: no task "
+            "has both HER and ACDER past the threshold."
+        )
     said = [f"{key} our 95% interval on {and_join(v)}" for key, v in where.items() if v]
     text = "The paper's HER/ACDER ratio lies " + "; ".join(said) + ". "
     if not where["inside"] and not where["below"]:
-        return text + "On every task with a ratio, ACDER's advantage over HER is smaller here than in the paper: its factor of five does not reproduce."
+        return (
+            text
+            + "On every task with a ratio, ACDER's advantage over HER is smaller here "
+            "than in the paper: its factor of five does not reproduce."
+        )
     if not where["above"] and not where["below"]:
-        return text + "Our runs are consistent with the paper's factor on every task with a ratio."
+        return (
+            text + "Our runs are consistent with the paper's factor "
+            "on every task with a ratio."
+        )
     return text + "The paper's factor reproduces on some tasks and not on others."
 
 
 def sentence(parts: list[str]) -> str:
-    """Clauses joined by '; ' as one sentence: first letter upper case, a full stop at the end."""
+    """Clauses joined by '; ' as one sentence: first letter upper case,
+    a full stop at the end."""
     text = "; ".join(p for p in parts if p)
-    return text[:1].upper() + text[1:] + ("." if text and not text.endswith(".") else "")
+    return (
+        text[:1].upper() + text[1:] + ("." if text and not text.endswith(".") else "")
+    )
 
 
 def and_join(items: list[str]) -> str:
@@ -232,17 +320,25 @@ def and_join(items: list[str]) -> str:
 
 
 def grid_state(cells: list[CellStat]) -> str:
-    """How far the grid is: cells with a finished seed, seeds finished of those planned (cells
-    outside the grid, such as protocol v1's acder-baselines-clip, are not counted)."""
+    """How far the grid is: cells with a finished seed, seeds finished of those planned
+    (cells outside the grid, such as protocol v1's acder-baselines-clip, are not
+    counted)."""
     grid = set(grid_cells())
     cells = [c for c in cells if (c.env, c.name) in grid]
     started = sum(c.done > 0 for c in cells)
     done, unfinished = sum(c.done for c in cells), sum(c.unfinished for c in cells)
     planned = sum(c.planned or 0 for c in cells)
     text = f"{started} of the grid's {len(cells)} cells have at least one finished seed"
-    text += f"; {done} of the {planned} planned seeds have finished" if planned else f"; {done} seeds have finished"
+    text += (
+        f"; {done} of the {planned} planned seeds have finished"
+        if planned
+        else f"; {done} seeds have finished"
+    )
     if unfinished:
-        text += f", {unfinished} more {'is' if unfinished == 1 else 'are'} training or interrupted"
+        text += (
+            f", {unfinished} more {'is' if unfinished == 1 else 'are'} "
+            "training or interrupted"
+        )
     held = sum(bool(c.hold) and c.n < (c.planned or 0) for c in cells)
     if held:
         text += f", and {held} cells are on hold until the readings below are in"
@@ -250,11 +346,19 @@ def grid_state(cells: list[CellStat]) -> str:
 
 
 def order_sentence(cells: list[CellStat]) -> str:
-    """The cells ordered by their mean curve's crossing (fewest episodes first); then those
-    without one, with why ("not run yet: A, B" in one clause)."""
-    crossed = sorted((c for c in cells if c.crossing is not None), key=lambda c: c.crossing)
-    parts = [" < ".join(f"{label(c.name)} {units(c, c.crossing)}" for c in crossed)] if crossed else []
-    parts += [f"{label(c.name)} {mean_text(c)}" for c in cells if c.crossing is None and c.n]
+    """The cells ordered by their mean curve's crossing (fewest episodes first); then
+    those without one, with why ("not run yet: A, B" in one clause)."""
+    crossed = sorted(
+        (c for c in cells if c.crossing is not None), key=lambda c: c.crossing
+    )
+    parts = (
+        [" < ".join(f"{label(c.name)} {units(c, c.crossing)}" for c in crossed)]
+        if crossed
+        else []
+    )
+    parts += [
+        f"{label(c.name)} {mean_text(c)}" for c in cells if c.crossing is None and c.n
+    ]
     unrun = [label(c.name) for c in cells if not c.n]
     if unrun:
         parts.append("not run yet: " + ", ".join(unrun))
@@ -262,18 +366,28 @@ def order_sentence(cells: list[CellStat]) -> str:
 
 
 def ablation_sentence(cells: list[CellStat], env: str) -> str:
-    """Fig. 5's claims checked on one task: every ablation slower than ACDER, and (curiosity,
-    start states) still faster than HER."""
+    """Fig. 5's claims checked on one task: every ablation slower than ACDER, and
+    (curiosity, start states) still faster than HER."""
     by = {c.name: c for c in cells if c.env == env}
     where = task_label(env)
     acder, her = by.get("acder"), by.get("her")
     abl = [by[n] for n in ABLATIONS if n in by and by[n].crossing is not None]
     if acder is None or acder.crossing is None or not abl:
-        return f"On {where} the ablations cannot be compared yet ({order_sentence([by[n] for n in ('acder',) + ABLATIONS if n in by])})."
+        return (
+            f"On {where} the ablations cannot be compared yet "
+            f"({order_sentence([by[n] for n in ('acder',) + ABLATIONS if n in by])})."
+        )
     slower = [label(c.name) for c in abl if c.crossing > acder.crossing]
     faster = [label(c.name) for c in abl if c.crossing <= acder.crossing]
-    text = f"On {where}, ordered by the mean curve: {order_sentence([by[n] for n in ('her', 'acder') + ABLATIONS if n in by])}. "
-    text += (f"Slower than full ACDER, as in the paper: {and_join(slower)}" if slower else "No ablation is slower than full ACDER")
+    text = (
+        f"On {where}, ordered by the mean curve: "
+        f"{order_sentence([by[n] for n in ('her', 'acder') + ABLATIONS if n in by])}. "
+    )
+    text += (
+        f"Slower than full ACDER, as in the paper: {and_join(slower)}"
+        if slower
+        else "No ablation is slower than full ACDER"
+    )
     if faster:
         text += f"; as fast or faster, unlike the paper: {and_join(faster)}"
     if her is not None and her.crossing is not None:
@@ -284,21 +398,45 @@ def ablation_sentence(cells: list[CellStat], env: str) -> str:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `python -m acder_lite table`."""
-    parser.add_argument("--results", default="results", help="root of <env>/<name>/seed<k> (default: results)")
-    parser.add_argument("--plan", default=None, metavar="FILE",
-                        help="plan file for the planned seed counts (default: RESULTS/plan.toml if present)")
-    parser.add_argument("--format", choices=("markdown", "json"), default="markdown",
-                        help="markdown (default) or the cells and ratios as JSON")
-    parser.add_argument("--resamples", type=int, default=None, help="bootstrap resamples per cell (default: 2000)")
+    parser.add_argument(
+        "--results",
+        default="results",
+        help="root of <env>/<name>/seed<k> (default: results)",
+    )
+    parser.add_argument(
+        "--plan",
+        default=None,
+        metavar="FILE",
+        help="plan file for the planned seed counts "
+        "(default: RESULTS/plan.toml if present)",
+    )
+    parser.add_argument(
+        "--format",
+        choices=("markdown", "json"),
+        default="markdown",
+        help="markdown (default) or the cells and ratios as JSON",
+    )
+    parser.add_argument(
+        "--resamples",
+        type=int,
+        default=None,
+        help="bootstrap resamples per cell (default: 2000)",
+    )
 
 
 def read_planned(args, root: Path) -> dict:
-    """The plan's seed counts, or {} (with one line on stderr if the plan cannot be read)."""
+    """The plan's seed counts, or {} (with one line on stderr if the plan
+    cannot be read)."""
     from .sweep import PlanError
+
     plan = Path(args.plan) if args.plan else root / "plan.toml"
     if not plan.exists():
         if args.plan:
-            print(f"table: plan {str(plan)!r} does not exist; seed counts are the seeds found", file=sys.stderr)
+            print(
+                f"table: plan {str(plan)!r} does not exist; "
+                "seed counts are the seeds found",
+                file=sys.stderr,
+            )
         return {}
     try:
         return planned_cells(plan, root)
@@ -308,20 +446,34 @@ def read_planned(args, root: Path) -> dict:
 
 
 def run(args) -> int:
-    """Print Table I from the runs under --results; 2 with a one-line error if none can be read."""
+    """Print Table I from the runs under --results;
+    2 with a one-line error if none can be read."""
     root = Path(args.results)
     if args.resamples is not None and args.resamples < 1:
-        print(f"error: table: --resamples={args.resamples} is not allowed: an integer >= 1", file=sys.stderr)
+        print(
+            f"error: table: --resamples={args.resamples} is not allowed: "
+            "an integer >= 1",
+            file=sys.stderr,
+        )
         return 2
     if not root.is_dir():
-        print(f"error: table: results folder {str(root)!r} does not exist", file=sys.stderr)
+        print(
+            f"error: table: results folder {str(root)!r} does not exist",
+            file=sys.stderr,
+        )
         return 2
     skipped: list[str] = []
     runs = load_runs(root, warn=skipped.append)
     if not runs:
-        why = f" ({len(skipped)} folder(s) skipped, first: {skipped[0]})" if skipped else \
-            "; allowed: a folder of <env>/<name>/seed<k> runs written by train or sweep"
-        print(f"error: table: no readable run under {str(root)!r}{why}", file=sys.stderr)
+        why = (
+            f" ({len(skipped)} folder(s) skipped, first: {skipped[0]})"
+            if skipped
+            else "; allowed: a folder of <env>/<name>/seed<k> runs "
+            "written by train or sweep"
+        )
+        print(
+            f"error: table: no readable run under {str(root)!r}{why}", file=sys.stderr
+        )
         return 2
     for line in skipped:
         print(f"table: {line}", file=sys.stderr)
@@ -331,8 +483,15 @@ def run(args) -> int:
     kw = {} if args.resamples is None else dict(n_boot=args.resamples)
     cells = summarize(runs, planned, cells=grid if found & set(grid) else None, **kw)
     if args.format == "json":
-        print(json.dumps(dict(cells=[c.to_dict() for c in cells],
-                              ratios=[r.to_dict() for r in ratios(cells)]), indent=2))
+        print(
+            json.dumps(
+                dict(
+                    cells=[c.to_dict() for c in cells],
+                    ratios=[r.to_dict() for r in ratios(cells)],
+                ),
+                indent=2,
+            )
+        )
     else:
         print(markdown(cells), end="")
     return 0

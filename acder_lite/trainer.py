@@ -1,10 +1,12 @@
-"""The one trainer: rollouts, storage, HER sampling, rewards, DDPG and curiosity updates.
+"""The one trainer: rollouts, storage, HER sampling,
+rewards, DDPG and curiosity updates.
 
-The paper's protocol in one process (DESIGN.md, protocol v2): W envs stepped together, 2 episodes
-per worker per cycle, 40 updates per cycle on minibatches of 256*W, 50 cycles an epoch (10 on
-FetchReach), 20 deterministic test episodes per worker after each epoch. A method
-(`Config.method`) only flips switches here.
+The paper's protocol in one process (DESIGN.md, protocol v2): W envs stepped together, 2
+episodes per worker per cycle, 40 updates per cycle on minibatches of 256*W, 50 cycles
+an epoch (10 on FetchReach), 20 deterministic test episodes per worker after each epoch.
+A method (`Config.method`) only flips switches here.
 """
+
 from __future__ import annotations
 
 import sys
@@ -26,21 +28,43 @@ from .rollout import Policy, run_episodes
 from .runfiles import RunFiles, versions
 from .start_states import StartStateSelector
 
-__all__ = ["Trainer", "Policy", "run_episodes", "target_clip", "versions", "BASE_COLUMNS"]
+__all__ = [
+    "Trainer",
+    "Policy",
+    "run_episodes",
+    "target_clip",
+    "versions",
+    "BASE_COLUMNS",
+]
 
-BASE_COLUMNS = ["epoch", "cycle", "episodes", "env_steps", "test_success", "train_success",
-                "critic_loss", "actor_loss", "q_mean", "wall_s"]
-"""Columns every method writes to progress.csv; methods add their diagnostics after these."""
+BASE_COLUMNS = [
+    "epoch",
+    "cycle",
+    "episodes",
+    "env_steps",
+    "test_success",
+    "train_success",
+    "critic_loss",
+    "actor_loss",
+    "q_mean",
+    "wall_s",
+]
+"""Columns every method writes to progress.csv;
+methods add their diagnostics after these."""
 
 
-def target_clip(clip: str, switches: dict, eta: float, gamma: float) -> tuple[float, float]:
-    """The range the critic's target y is clipped to (`compute_loss_q`), `Config.target_clip`.
+def target_clip(
+    clip: str, switches: dict, eta: float, gamma: float
+) -> tuple[float, float]:
+    """The range the critic's target y is clipped to
+    (`compute_loss_q`), `Config.target_clip`.
 
-    "baselines" (protocol v2, every method): Baselines' [-1/(1-gamma), 0] whatever the rewards
-    (its clip_pos_returns), so accumulated curiosity cannot make Q positive. "wide" (protocol v1's
-    ACDER): the rewards lambda * r_her + r_i lie in [-lambda_max, r_i_max], so y is clipped to that
-    range over 1 - gamma, lambda_max = 1.5 with the goal factor (Eq. 6), r_i_max = eta when r_i is
-    in the reward (Eq. 4).
+    "baselines" (protocol v2, every method): Baselines' [-1/(1-gamma), 0] whatever the
+    rewards (its clip_pos_returns), so accumulated curiosity cannot make Q positive.
+    "wide" (protocol v1's ACDER): the rewards lambda * r_her + r_i lie in
+    [-lambda_max, r_i_max], so y is clipped to that range over 1 - gamma,
+    lambda_max = 1.5 with the goal factor (Eq. 6), r_i_max = eta when r_i is in the
+    reward (Eq. 4).
     """
     if clip == "baselines":
         return (-1.0 / (1 - gamma), 0.0)
@@ -50,7 +74,9 @@ def target_clip(clip: str, switches: dict, eta: float, gamma: float) -> tuple[fl
 
 
 class Trainer:
-    def __init__(self, cfg: Config, out_dir: str | None = None, command: list[str] | None = None):
+    def __init__(
+        self, cfg: Config, out_dir: str | None = None, command: list[str] | None = None
+    ):
         self.cfg = cfg.resolve()
         self.out_dir, self.command = out_dir, command or sys.argv
         self.files = RunFiles(out_dir) if out_dir else None
@@ -58,49 +84,90 @@ class Trainer:
         torch.set_num_threads(cfg.threads)
         torch.manual_seed(cfg.seed)
         self.rng = np.random.default_rng(cfg.seed)
-        self.envs = [E.make_env(cfg.env, seed=cfg.seed * 1000 + i) for i in range(cfg.workers)]
-        self.test_envs = [E.make_env(cfg.env, seed=cfg.seed * 1000 + 500 + i) for i in range(cfg.workers)]
+        # cfg.obs: the observation set every env gives (acder_lite.observations);
+        # "full" is the env as made, so the rest of the trainer reads whichever
+        # vector it is given
+        self.envs = [
+            E.make_env(cfg.env, seed=cfg.seed * 1000 + i, obs=cfg.obs)
+            for i in range(cfg.workers)
+        ]
+        self.test_envs = [
+            E.make_env(cfg.env, seed=cfg.seed * 1000 + 500 + i, obs=cfg.obs)
+            for i in range(cfg.workers)
+        ]
         n_step = min(cfg.workers, cfg.step_threads or cfg.threads)
-        self.pool = ThreadPoolExecutor(n_step, thread_name_prefix="step") if n_step > 1 else None
+        self.pool = (
+            ThreadPoolExecutor(n_step, thread_name_prefix="step")
+            if n_step > 1
+            else None
+        )
         env0 = self.envs[0]
         obs = env0._get_obs()
         self.T = E.horizon(cfg.env)
         self.dt = float(env0.dt)
         self.reward_fn = env0.compute_reward
         self.max_u = float(env0.action_space.high[0])
-        dims = dict(o=obs["observation"].size, g=obs["desired_goal"].size,
-                    u=env0.action_space.shape[0], state=E.state_size(env0))
+        dims = dict(
+            o=obs["observation"].size,
+            g=obs["desired_goal"].size,
+            u=env0.action_space.shape[0],
+            state=E.state_size(env0),
+        )
         self.dims = dims
         self.buffer = EpisodeBuffer(cfg.buffer_capacity, self.T, dims)
         self.o_norm = Normalizer(dims["o"], cfg.norm_eps, cfg.norm_clip)
         self.g_norm = Normalizer(dims["g"], cfg.norm_eps, cfg.norm_clip)
         s_dim = dims["o"] + dims["g"]
-        self.agent = DDPG(s_dim, dims["u"], cfg, self.max_u)
-        self.policy = Policy(self.agent.actor, self.o_norm, self.g_norm, cfg.clip_obs)
+        # cfg.device: networks, normalised minibatches and gradient steps; simulation,
+        # replay, HER sampling and the numpy rewards stay on the CPU (DESIGN.md)
+        self.device = dev = torch.device(self.cfg.device)
+        self.agent = DDPG(s_dim, dims["u"], cfg, self.max_u, dev)
+        self.policy = Policy(
+            self.agent.actor, self.o_norm, self.g_norm, cfg.clip_obs, dev
+        )
         self.curiosity = None
         if sw["curiosity"] == "sicm":
-            self.curiosity = SICM(s_dim, dims["u"], cfg.sicm_hidden, cfg.sicm_lr, cfg.init)
+            self.curiosity = SICM(
+                s_dim, dims["u"], cfg.sicm_hidden, cfg.sicm_lr, cfg.init, dev
+            )
         elif sw["curiosity"] == "icm":
-            self.curiosity = ICM(s_dim, dims["u"], cfg.icm_feature_dim, cfg.sicm_hidden, cfg.icm_beta,
-                                 cfg.sicm_lr, cfg.init)
-        self.selector = StartStateSelector(cfg.pool_size, cfg.alpha0) if sw["start_states"] else None
+            self.curiosity = ICM(
+                s_dim,
+                dims["u"],
+                cfg.icm_feature_dim,
+                cfg.sicm_hidden,
+                cfg.icm_beta,
+                cfg.sicm_lr,
+                cfg.init,
+                dev,
+            )
+        self.selector = (
+            StartStateSelector(cfg.pool_size, cfg.alpha0)
+            if sw["start_states"]
+            else None
+        )
         self.per = self.ebp = None
         if sw["priority"] == "per":
             from .priority import PrioritizedReplay
-            self.per = PrioritizedReplay(self.buffer.size, self.T, cfg.per_alpha, cfg.per_eps)
+
+            self.per = PrioritizedReplay(
+                self.buffer.size, self.T, cfg.per_alpha, cfg.per_eps
+            )
         elif sw["priority"] == "ebp":
             from .priority import EnergyPrioritizer
+
             self.ebp = EnergyPrioritizer(self.buffer.size)
         self.clip_return = target_clip(cfg.target_clip, sw, cfg.eta, cfg.gamma)
         # progress
-        self.cycle = 0               # cycles done in all
-        self.episodes = 0            # training episodes (all workers)
+        self.cycle = 0  # cycles done in all
+        self.episodes = 0  # training episodes (all workers)
         self.env_steps = 0
         self.wall = 0.0
-        self.success_rate = 0.0      # latest test success (drives Eq. 9)
+        self.success_rate = 0.0  # latest test success (drives Eq. 9)
         self.rows: list[dict] = []
         self.done = False
-        self.stop_reason: str | None = None  # "success held", "gap after first success" or "budget"
+        # "success held", "gap after first success" or "budget"
+        self.stop_reason: str | None = None
         self._reset_diag()
 
     # ----- columns and diagnostics
@@ -120,13 +187,25 @@ class Trainer:
         return BASE_COLUMNS + extra
 
     def _reset_diag(self):
-        self.diag = dict(n_upd=0, critic_loss=0.0, actor_loss=0.0, q_mean=0.0, r_int=0.0, cur_loss=0.0,
-                         lam=0.0, n_ep=0, n_novel=0, n_succ=0, energy=0.0)
+        self.diag = dict(
+            n_upd=0,
+            critic_loss=0.0,
+            actor_loss=0.0,
+            q_mean=0.0,
+            r_int=0.0,
+            cur_loss=0.0,
+            lam=0.0,
+            n_ep=0,
+            n_novel=0,
+            n_succ=0,
+            energy=0.0,
+        )
 
     # ----- acting
     def explore_act(self, o: np.ndarray, g: np.ndarray) -> np.ndarray:
-        """Baselines' exploration: pi + N(0, noise_eps) clipped, then a uniform random action with
-        probability random_eps. All random numbers are drawn every call (stable random stream)."""
+        """Baselines' exploration: pi + N(0, noise_eps) clipped, then a uniform random
+        action with probability random_eps. All random numbers are drawn every call
+        (stable random stream)."""
         u = self.policy(o, g)
         noise = self.cfg.noise_eps * self.max_u * self.rng.standard_normal(u.shape)
         u = np.clip(u + noise, -self.max_u, self.max_u)
@@ -135,23 +214,35 @@ class Trainer:
         return np.where(pick[:, None], rand, u).astype(np.float32)
 
     def _start(self, i: int):
-        """Where env i's next episode starts: a stored candidate (probability alpha) or None."""
+        """Where env i's next episode starts:
+        a stored candidate (probability alpha) or None."""
         cand = self.selector.draw(self.rng)
         if cand is None:
             return None
-        return dict(state=cand["state"], goal=cand["goal"] if self.cfg.restart_goal == "episode" else None)
+        return dict(
+            state=cand["state"],
+            goal=cand["goal"] if self.cfg.restart_goal == "episode" else None,
+        )
 
     # ----- one cycle
     def collect(self) -> dict:
-        ep = run_episodes(self.envs, self.explore_act, self.T, starts=self._start if self.selector else None,
-                          pool=self.pool)
+        ep = run_episodes(
+            self.envs,
+            self.explore_act,
+            self.T,
+            starts=self._start if self.selector else None,
+            pool=self.pool,
+        )
         slots = self.buffer.store(ep)
         if self.per is not None:
             self.per.add_episodes(slots)
         if self.ebp is not None:
             from .priority import trajectory_energy
+
             c = self.cfg
-            energy = trajectory_energy(ep["ag"], self.dt, c.ebp_w_potential, c.ebp_w_kinetic, c.ebp_clip_energy)
+            energy = trajectory_energy(
+                ep["ag"], self.dt, c.ebp_w_potential, c.ebp_w_kinetic, c.ebp_clip_energy
+            )
             self.ebp.add_episodes(slots, energy)
             self.diag["energy"] += float(energy.sum())
         self._update_normalizer(ep)
@@ -165,9 +256,12 @@ class Trainer:
         return ep
 
     def _update_normalizer(self, ep: dict) -> None:
-        """Baselines: statistics from HER-relabelled samples of the episodes just collected."""
+        """Baselines: statistics from HER-relabelled samples of the episodes just
+        collected."""
         n = ep["o"].shape[0]
-        tr = sample_her_transitions(ep, n * self.T, self.cfg.future_p, self.reward_fn, self.rng)
+        tr = sample_her_transitions(
+            ep, n * self.T, self.cfg.future_p, self.reward_fn, self.rng
+        )
         c = self.cfg.clip_obs
         self.o_norm.update(np.clip(tr["o"], -c, c))
         self.g_norm.update(np.clip(tr["g"], -c, c))
@@ -179,64 +273,100 @@ class Trainer:
             ep_idx, t_idx, weights = self.per.sample(self.rng, B, self.per_beta)
         elif self.ebp is not None:
             ep_idx = self.ebp.sample_episodes(self.rng, B)
-        batch = sample_her_transitions(self.buffer.arrays(), B, self.cfg.future_p, self.reward_fn,
-                                       self.rng, ep_idx, t_idx)
+        batch = sample_her_transitions(
+            self.buffer.arrays(),
+            B,
+            self.cfg.future_p,
+            self.reward_fn,
+            self.rng,
+            ep_idx,
+            t_idx,
+        )
         batch["weights"] = weights
         return batch
 
     @property
     def per_beta(self) -> float:
         from .priority import per_beta
+
         total = self.cfg.epochs * self.cfg.cycles
         return per_beta(self.cycle / max(1, total), self.cfg.per_beta0)
 
     def rewards(self, batch: dict, tb: dict) -> torch.Tensor:
-        """r = lambda * r_her + r_i (Eq. 4-6), with lambda = 1 on rows HER did not relabel.
+        """r = lambda * r_her + r_i (Eq. 4-6),
+        with lambda = 1 on rows HER did not relabel.
 
-        Also the curiosity module's training step (Eq. 7-8, same minibatch) and the start-state
-        candidate of this minibatch; r_i stays out of r when the method's `curiosity_reward` is off.
+        Also the curiosity module's training step (Eq. 7-8, same minibatch) and the
+        start-state candidate of this minibatch; r_i stays out of r when the method's
+        `curiosity_reward` is off.
         """
         sw = self.cfg.switches
         r_int = None
         if self.curiosity is not None:
             s, s2 = self.curiosity_inputs(batch, tb)
             pred, target, loss = self.curiosity.step(s, tb["u"], s2)
-            r_int = intrinsic_reward(pred.numpy(), target.numpy(), self.cfg.eta).astype(np.float32)
+            # the update's one trip to the CPU (a no-op there): Eq. 4 and 6 are numpy by
+            # design (rewards.py) and the start-state pool keeps numpy rows
+            r_int = intrinsic_reward(
+                pred.cpu().numpy(), target.cpu().numpy(), self.cfg.eta
+            ).astype(np.float32)
             self.diag["r_int"] += float(r_int.mean())
             self.diag["cur_loss"] += float(loss)
             if self.selector is not None:
                 self.selector.offer(batch, r_int, self.buffer)
-        # agent position s^a_t = gripper position, o[:3] (DESIGN.md)
+        # agent position s^a_t = gripper position, o[:3] (book/departures.md,
+        # departure 10); the simplified observation keeps it first
+        # (observations.simplified_indices checks it)
         goal = goal_factor_target(batch["g"], batch["ag"])
-        r, lam = shaped_reward(batch["r"], batch["her"], batch["o"][:, :3], goal, batch["u"],
-                               r_int if sw["curiosity_reward"] else None, sw["goal_factor"])
+        r, lam = shaped_reward(
+            batch["r"],
+            batch["her"],
+            batch["o"][:, :3],
+            goal,
+            batch["u"],
+            r_int if sw["curiosity_reward"] else None,
+            sw["goal_factor"],
+        )
         if sw["goal_factor"]:
             self.diag["lam"] += float(lam.mean())
-        return torch.from_numpy(r)
+        return torch.from_numpy(r).to(self.device)
 
-    def curiosity_inputs(self, batch: dict, tb: dict) -> tuple[torch.Tensor, torch.Tensor]:
-        """What the curiosity module sees of a minibatch, s = (o, g) and s' = (o2, g): the policy's
-        normalised inputs, or the raw ones clipped to clip_obs (`Config.sicm_input`)."""
+    def curiosity_inputs(
+        self, batch: dict, tb: dict
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """What the curiosity module sees of a minibatch, s = (o, g) and s' = (o2, g):
+        the policy's normalised inputs, or the raw ones clipped to clip_obs
+        (`Config.sicm_input`)."""
         if self.cfg.sicm_input == "normalised":
             return tb["x"], tb["x2"]
         c = self.cfg.clip_obs
         g = torch.as_tensor(batch["g"], dtype=torch.float32)
-        cat = lambda o: torch.cat([torch.as_tensor(o, dtype=torch.float32), g], -1).clamp(-c, c)
+
+        def cat(o):  # built on the CPU, moved once: the same bits on every device
+            s = torch.cat([torch.as_tensor(o, dtype=torch.float32), g], -1).clamp(-c, c)
+            return s.to(self.device)
+
         return cat(batch["o"]), cat(batch["o2"])
 
     def batch_tensors(self, batch: dict) -> dict:
-        """The networks' inputs of a minibatch: normalised (o, g) as x, (o2, g) as x2, and u."""
-        return dict(x=self.policy.inputs(batch["o"], batch["g"]), x2=self.policy.inputs(batch["o2"], batch["g"]),
-                    u=torch.from_numpy(np.ascontiguousarray(batch["u"])))
+        """The networks' inputs of a minibatch:
+        normalised (o, g) as x, (o2, g) as x2, and u."""
+        u = torch.from_numpy(np.ascontiguousarray(batch["u"])).to(self.device)
+        return dict(
+            x=self.policy.inputs(batch["o"], batch["g"]),
+            x2=self.policy.inputs(batch["o2"], batch["g"]),
+            u=u,
+        )
 
     def update_step(self) -> dict:
         batch = self.sample_batch()
         tb = self.batch_tensors(batch)
         tb["r"] = self.rewards(batch, tb)
-        w = None if batch["weights"] is None else torch.from_numpy(batch["weights"])
+        w = batch["weights"]
+        w = None if w is None else torch.from_numpy(w).to(self.device)
         out = self.agent.update(tb, self.clip_return, w)
-        if self.per is not None:
-            self.per.update(batch["ep"], batch["t"], out["td"].numpy())
+        if self.per is not None:  # the sum tree is numpy: |TD| comes back once, after
+            self.per.update(batch["ep"], batch["t"], out["td"].cpu().numpy())
         d = self.diag
         d["n_upd"] += 1
         d["critic_loss"] += float(out["critic_loss"])
@@ -253,13 +383,14 @@ class Trainer:
 
     @torch.no_grad()
     def evaluate(self) -> float:
-        """Mean is_success at the last step of test_episodes deterministic episodes per worker."""
+        """Mean is_success at the last step of test_episodes deterministic episodes per
+        worker."""
         succ, q = [], []
         for _ in range(self.cfg.test_episodes):
             ep = run_episodes(self.test_envs, self.policy, self.T, pool=self.pool)
             succ.append(ep["success"])
             x = self.policy.inputs(ep["o"][:, 0], ep["g"][:, 0])
-            q.append(self.agent.critic(x, self.agent.actor(x)).numpy())
+            q.append(self.agent.critic(x, self.agent.actor(x)).cpu().numpy())
         self.diag["q_mean"] = float(np.mean(np.concatenate(q))) if q else float("nan")
         return float(np.mean(np.concatenate(succ))) if succ else float("nan")
 
@@ -269,14 +400,23 @@ class Trainer:
         if self.selector is not None:
             self.selector.set_success_rate(self.success_rate)
         d, n = self.diag, max(1, self.diag["n_upd"])
-        row = dict(epoch=self.cycle / self.cfg.cycles, cycle=self.cycle, episodes=self.episodes,
-                   env_steps=self.env_steps, test_success=self.success_rate,
-                   train_success=d["n_succ"] / max(1, d["n_ep"]),
-                   critic_loss=d["critic_loss"] / n, actor_loss=d["actor_loss"] / n, q_mean=d["q_mean"],
-                   wall_s=self.wall + time.perf_counter() - wall_start,
-                   r_int_mean=d["r_int"] / n, curiosity_loss=d["cur_loss"] / n, lambda_mean=d["lam"] / n,
-                   novel_start_share=d["n_novel"] / max(1, d["n_ep"]),
-                   energy_mean=d["energy"] / max(1, d["n_ep"]))
+        row = dict(
+            epoch=self.cycle / self.cfg.cycles,
+            cycle=self.cycle,
+            episodes=self.episodes,
+            env_steps=self.env_steps,
+            test_success=self.success_rate,
+            train_success=d["n_succ"] / max(1, d["n_ep"]),
+            critic_loss=d["critic_loss"] / n,
+            actor_loss=d["actor_loss"] / n,
+            q_mean=d["q_mean"],
+            wall_s=self.wall + time.perf_counter() - wall_start,
+            r_int_mean=d["r_int"] / n,
+            curiosity_loss=d["cur_loss"] / n,
+            lambda_mean=d["lam"] / n,
+            novel_start_share=d["n_novel"] / max(1, d["n_ep"]),
+            energy_mean=d["energy"] / max(1, d["n_ep"]),
+        )
         if self.selector is not None:
             row.update(alpha=self.selector.alpha, pool_size=len(self.selector.pool))
         if self.per is not None:
@@ -289,30 +429,39 @@ class Trainer:
         return row
 
     def should_stop(self) -> bool:
-        """The stop rule: test success >= success_threshold at the last stop_patience evaluations."""
+        """The stop rule: test success >= success_threshold at the last stop_patience
+        evaluations."""
         c = self.cfg
         if c.stop_patience <= 0 or len(self.rows) < c.stop_patience:
             return False
-        return all(r["test_success"] >= c.success_threshold for r in self.rows[-c.stop_patience:])
+        return all(
+            r["test_success"] >= c.success_threshold
+            for r in self.rows[-c.stop_patience :]
+        )
 
     def past_gap(self) -> bool:
-        """stop_gap_episodes training episodes or more since the test success first reached
-        success_threshold (protocol v1; checked at epoch ends only, so the run ends on a checkpoint)."""
+        """stop_gap_episodes training episodes or more since the test success first
+        reached success_threshold (protocol v1; checked at epoch ends only, so the run
+        ends on a checkpoint)."""
         c = self.cfg
         if c.stop_gap_episodes <= 0:
             return False
-        from .report import episodes_to_threshold  # the first crossing exactly as Table I reads it
+        # the first crossing exactly as Table I reads it
+        from .report import episodes_to_threshold
+
         first = episodes_to_threshold(self.rows, c.success_threshold)
         return first is not None and self.episodes >= first + c.stop_gap_episodes
 
     def train(self, progress: bool = True, max_cycles: int | None = None) -> list[dict]:
         """Train until cfg.epochs (or the early stop), checkpointing after every epoch.
 
-        `max_cycles` pauses the run after that many cycles in all, as an interrupt at that point
-        would (no done.json; `--resume` continues). On KeyboardInterrupt the last end-of-epoch checkpoint stays on disk (it is written
-        atomically), so `--resume` continues from there; the interrupt is re-raised.
+        `max_cycles` pauses the run after that many cycles in all, as an interrupt at
+        that point would (no done.json; `--resume` continues). On KeyboardInterrupt the
+        last end-of-epoch checkpoint stays on disk (it is written atomically), so
+        `--resume` continues from there; the interrupt is re-raised.
         """
         from tqdm import tqdm
+
         c = self.cfg
         total = c.epochs * c.cycles
         if self.out_dir:
@@ -320,17 +469,27 @@ class Trainer:
             if self.rows:  # a resumed run: drop rows logged after its checkpoint
                 self.files.write_progress(self.rows, self.columns)
         stop_at = total if max_cycles is None else min(total, max_cycles)
-        bar = tqdm(total=total, initial=self.cycle, disable=not progress, unit="cycle",
-                   dynamic_ncols=True, file=sys.stderr)
+        bar = tqdm(
+            total=total,
+            initial=self.cycle,
+            disable=not progress,
+            unit="cycle",
+            dynamic_ncols=True,
+            file=sys.stderr,
+        )
         t0 = time.perf_counter()
         try:
             while self.cycle < stop_at and not self.done:
                 self.train_cycle()
                 bar.update(1)
                 end_of_epoch = self.cycle % c.cycles == 0
-                if end_of_epoch or (c.eval_every_cycles and self.cycle % c.eval_every_cycles == 0):
+                if end_of_epoch or (
+                    c.eval_every_cycles and self.cycle % c.eval_every_cycles == 0
+                ):
                     row = self.log_row(t0)
-                    bar.set_postfix(success=f"{row['test_success']:.2f}", episodes=self.episodes)
+                    bar.set_postfix(
+                        success=f"{row['test_success']:.2f}", episodes=self.episodes
+                    )
                     if self.should_stop():
                         self.done, self.stop_reason = True, "success held"
                 if end_of_epoch and not self.done and self.past_gap():
@@ -345,38 +504,71 @@ class Trainer:
         finally:
             bar.close()
         if self.files and self.done:
-            self.files.write_done(dict(epochs=self.cycle / c.cycles, episodes=self.episodes,
-                            stopped_early=self.cycle < total, stop_reason=self.stop_reason,
-                            stop_rule=dict(success_threshold=c.success_threshold, patience=c.stop_patience,
-                                           budget_epochs=c.epochs, gap_episodes=c.stop_gap_episodes),
-                            final_test_success=self.success_rate, wall_s=self.wall))
+            self.files.write_done(
+                dict(
+                    epochs=self.cycle / c.cycles,
+                    episodes=self.episodes,
+                    stopped_early=self.cycle < total,
+                    stop_reason=self.stop_reason,
+                    stop_rule=dict(
+                        success_threshold=c.success_threshold,
+                        patience=c.stop_patience,
+                        budget_epochs=c.epochs,
+                        gap_episodes=c.stop_gap_episodes,
+                    ),
+                    final_test_success=self.success_rate,
+                    wall_s=self.wall,
+                )
+            )
         return self.rows
 
     # ----- files
     def write_config(self) -> None:
-        """config.json (`RunFiles.write_config`): a resumed run appends its command under "resumes"."""
-        self.files.write_config(self.cfg.to_dict(), self.cfg.seed, " ".join(self.command), self.cycle)
+        """config.json (`RunFiles.write_config`):
+        a resumed run appends its command under "resumes"."""
+        self.files.write_config(
+            self.cfg.to_dict(), self.cfg.seed, " ".join(self.command), self.cycle
+        )
 
     def policy_state(self) -> dict:
-        return self.policy.state_dict(self.cfg.env, self.cfg.method)
+        # obs: what the policy sees, so eval, robust and export rebuild its input
+        # (io.check_policy)
+        return dict(
+            self.policy.state_dict(self.cfg.env, self.cfg.method), obs=self.cfg.obs
+        )
 
     def state_dict(self) -> dict:
         """Everything a resumed run needs to continue with the same numbers."""
         return dict(
-            config=self.cfg.to_dict(), policy=self.policy_state(), agent=self.agent.state_dict(),
-            o_norm=self.o_norm.state_dict(), g_norm=self.g_norm.state_dict(),
+            config=self.cfg.to_dict(),
+            policy=self.policy_state(),
+            agent=self.agent.state_dict(),
+            o_norm=self.o_norm.state_dict(),
+            g_norm=self.g_norm.state_dict(),
             curiosity=None if self.curiosity is None else self.curiosity.state_dict(),
-            curiosity_opt=None if self.curiosity is None else self.curiosity.opt.state_dict(),
+            curiosity_opt=None
+            if self.curiosity is None
+            else self.curiosity.opt.state_dict(),
             selector=None if self.selector is None else self.selector.state_dict(),
             per=None if self.per is None else self.per.state_dict(),
             ebp=None if self.ebp is None else self.ebp.state_dict(),
             buffer=self.buffer.state_dict(),
-            progress=dict(cycle=self.cycle, episodes=self.episodes, env_steps=self.env_steps, wall=self.wall,
-                          success_rate=self.success_rate, rows=self.rows, done=self.done,
-                          stop_reason=self.stop_reason),
-            rng=dict(numpy=self.rng.bit_generator.state, torch=torch.get_rng_state(),
-                     envs=[E.env_rng_state(e) for e in self.envs],
-                     test_envs=[E.env_rng_state(e) for e in self.test_envs]),
+            progress=dict(
+                cycle=self.cycle,
+                episodes=self.episodes,
+                env_steps=self.env_steps,
+                wall=self.wall,
+                success_rate=self.success_rate,
+                rows=self.rows,
+                done=self.done,
+                stop_reason=self.stop_reason,
+            ),
+            rng=dict(
+                numpy=self.rng.bit_generator.state,
+                torch=torch.get_rng_state(),
+                envs=[E.env_rng_state(e) for e in self.envs],
+                test_envs=[E.env_rng_state(e) for e in self.test_envs],
+            ),
             versions=versions(),
         )
 
@@ -392,9 +584,19 @@ class Trainer:
                 getattr(self, name).load_state_dict(d[name])
         self.buffer.load_state_dict(d["buffer"])
         p = d["progress"]
-        self.cycle, self.episodes, self.env_steps = p["cycle"], p["episodes"], p["env_steps"]
-        self.wall, self.success_rate, self.rows, self.done = p["wall"], p["success_rate"], p["rows"], p["done"]
-        self.stop_reason = p.get("stop_reason")  # absent from checkpoints written before it was recorded
+        self.cycle, self.episodes, self.env_steps = (
+            p["cycle"],
+            p["episodes"],
+            p["env_steps"],
+        )
+        self.wall, self.success_rate, self.rows, self.done = (
+            p["wall"],
+            p["success_rate"],
+            p["rows"],
+            p["done"],
+        )
+        # absent from checkpoints written before it was recorded
+        self.stop_reason = p.get("stop_reason")
         r = d["rng"]
         self.rng.bit_generator.state = r["numpy"]
         torch.set_rng_state(r["torch"])

@@ -10,17 +10,37 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def tiny_config(**kw) -> Config:
-    """A configuration small enough for a unit test; same code path as the paper protocol."""
-    base = dict(env="FetchReach-v4", method="her", workers=1, epochs=2, cycles=3, updates_per_cycle=4,
-                batch_size=32, test_episodes=1, hidden=32, sicm_hidden=32, buffer_size=20_000, threads=1)
+    """A configuration small enough for a unit test;
+    same code path as the paper protocol."""
+    base = dict(
+        env="FetchReach-v4",
+        method="her",
+        workers=1,
+        epochs=2,
+        cycles=3,
+        updates_per_cycle=4,
+        batch_size=32,
+        test_episodes=1,
+        hidden=32,
+        sicm_hidden=32,
+        buffer_size=20_000,
+        threads=1,
+    )
     base.update(kw)
     return Config(**base)
 
 
 def run_cli(*args, timeout=300, **kw):
     env = dict(os.environ, PYTHONPATH=ROOT)
-    return subprocess.run([sys.executable, "-m", "acder_lite", *args], capture_output=True, text=True,
-                          timeout=timeout, cwd=ROOT, env=env, **kw)
+    return subprocess.run(
+        [sys.executable, "-m", "acder_lite", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        cwd=ROOT,
+        env=env,
+        **kw,
+    )
 
 
 @pytest.fixture
@@ -29,15 +49,19 @@ def cli():
 
 
 def listening(pid: int) -> list[tuple[str, int]]:
-    """(address, port) of the TCP sockets process `pid` listens on (as in test_safe_loading)."""
+    """(address, port) of the TCP sockets process `pid` listens on
+    (as in test_safe_loading)."""
     try:
         import psutil
     except ImportError:
         psutil = None
     if psutil is not None:
         try:
-            return [(c.laddr.ip, c.laddr.port) for c in psutil.Process(pid).net_connections(kind="inet")
-                    if c.status == psutil.CONN_LISTEN]
+            return [
+                (c.laddr.ip, c.laddr.port)
+                for c in psutil.Process(pid).net_connections(kind="inet")
+                if c.status == psutil.CONN_LISTEN
+            ]
         except psutil.NoSuchProcess:
             return []
     if not os.path.isdir(f"/proc/{pid}/fd"):
@@ -56,13 +80,14 @@ def listening(pid: int) -> list[tuple[str, int]]:
             continue
         for line in open(table).read().splitlines()[1:]:
             f = line.split()
-            if f[3] != "0A" or f[9] not in inodes:   # 0A: LISTEN
+            if f[3] != "0A" or f[9] not in inodes:  # 0A: LISTEN
                 continue
             hexip, hexport = f[1].split(":")
             raw = bytes.fromhex(hexip)
             if v6:
                 import ipaddress
-                words = b"".join(raw[i:i + 4][::-1] for i in range(0, 16, 4))
+
+                words = b"".join(raw[i : i + 4][::-1] for i in range(0, 16, 4))
                 ip = str(ipaddress.IPv6Address(words))
             else:
                 ip = ".".join(str(b) for b in raw[::-1])

@@ -1,4 +1,6 @@
-"""Bad input: one line naming the problem and what is allowed, exit code 2, no traceback."""
+"""Bad input: one line naming the problem and what is allowed, exit code 2,
+no traceback."""
+
 import os
 import signal
 import subprocess
@@ -9,8 +11,23 @@ import pytest
 
 from conftest import ROOT
 
-TINY = ["--workers", "1", "--cycles", "2", "--updates-per-cycle", "2", "--batch-size", "16",
-        "--test-episodes", "1", "--hidden", "16", "--threads", "1", "--quiet"]
+TINY = [
+    "--workers",
+    "1",
+    "--cycles",
+    "2",
+    "--updates-per-cycle",
+    "2",
+    "--batch-size",
+    "16",
+    "--test-episodes",
+    "1",
+    "--hidden",
+    "16",
+    "--threads",
+    "1",
+    "--quiet",
+]
 
 
 def one_line_error(p, *needles):
@@ -23,28 +40,31 @@ def one_line_error(p, *needles):
     return lines[0]
 
 
-@pytest.mark.parametrize("args,needles", [
-    (["--env", "CartPole-v1"], ["env", "FetchReach-v4"]),
-    (["--method", "sac"], ["method", "acder"]),
-    (["--workers", "two"], ["--workers", "invalid int"]),
-    (["--lr-actor", "-0.001"], ["lr_actor", "> 0"]),
-    (["--batch-size", "0"], ["batch_size", ">= 1"]),
-    (["--eta", "1.5"], ["eta", "(0, 1)"]),
-    (["--alpha0", "-0.1"], ["alpha0", "[0, 1]"]),
-    (["--restart-goal", "random"], ["restart_goal", "resample"]),
-    (["--update-dtype", "float16"], ["update_dtype", "'bfloat16'"]),
-    (["--stop-gap-episodes", "-1"], ["stop_gap_episodes", ">= 0"]),
-    (["--target-clip", "nope"], ["target_clip", "'baselines'", "'wide'"]),
-    (["--sicm-input", "x"], ["sicm_input", "'normalised'", "'raw'"]),
-    (["--init", "he"], ["init", "'xavier'", "'torch'"]),
-    (["--buffer-scope", "global"], ["buffer_scope", "'worker'", "'shared'"]),
-    (["--success-threshold", "1.5"], ["success_threshold", "(0, 1]"]),
-    (["--success-threshold", "0"], ["success_threshold", "(0, 1]"]),
-    (["--stop-patience", "-1"], ["stop_patience", ">= 0"]),
-    (["--method", "acder-baselines-clip"], ["method", "acder"]),
-    (["--method", "her-ebp"], ["her-ebp", "object", "FetchPush-v4"]),
-    (["--no-such-option", "1"], ["unrecognized", "--no-such-option"]),
-])
+@pytest.mark.parametrize(
+    "args,needles",
+    [
+        (["--env", "CartPole-v1"], ["env", "FetchReach-v4"]),
+        (["--method", "sac"], ["method", "acder"]),
+        (["--workers", "two"], ["--workers", "invalid int"]),
+        (["--lr-actor", "-0.001"], ["lr_actor", "> 0"]),
+        (["--batch-size", "0"], ["batch_size", ">= 1"]),
+        (["--eta", "1.5"], ["eta", "(0, 1)"]),
+        (["--alpha0", "-0.1"], ["alpha0", "[0, 1]"]),
+        (["--restart-goal", "random"], ["restart_goal", "resample"]),
+        (["--update-dtype", "float16"], ["update_dtype", "'bfloat16'"]),
+        (["--stop-gap-episodes", "-1"], ["stop_gap_episodes", ">= 0"]),
+        (["--target-clip", "nope"], ["target_clip", "'baselines'", "'wide'"]),
+        (["--sicm-input", "x"], ["sicm_input", "'normalised'", "'raw'"]),
+        (["--init", "he"], ["init", "'xavier'", "'torch'"]),
+        (["--buffer-scope", "global"], ["buffer_scope", "'worker'", "'shared'"]),
+        (["--success-threshold", "1.5"], ["success_threshold", "(0, 1]"]),
+        (["--success-threshold", "0"], ["success_threshold", "(0, 1]"]),
+        (["--stop-patience", "-1"], ["stop_patience", ">= 0"]),
+        (["--method", "acder-baselines-clip"], ["method", "acder"]),
+        (["--method", "her-ebp"], ["her-ebp", "object", "FetchPush-v4"]),
+        (["--no-such-option", "1"], ["unrecognized", "--no-such-option"]),
+    ],
+)
 def test_train_bad_input(cli, tmp_path, args, needles):
     out = tmp_path / "run"
     p = cli("train", "--env", "FetchReach-v4", *args, "--out", str(out))
@@ -55,24 +75,56 @@ def test_train_bad_input(cli, tmp_path, args, needles):
 def test_protocol_settings_reach_config_json(cli, tmp_path):
     """The new settings are options of `train`; the presets fill what is not given."""
     import json
+
     out = tmp_path / "run"
-    p = cli("train", "--env", "FetchReach-v4", "--method", "acder", "--epochs", "1", *TINY,
-            "--target-clip", "wide", "--sicm-input", "raw", "--init", "torch", "--out", str(out))
+    p = cli(
+        "train",
+        "--env",
+        "FetchReach-v4",
+        "--method",
+        "acder",
+        "--epochs",
+        "1",
+        *TINY,
+        "--target-clip",
+        "wide",
+        "--sicm-input",
+        "raw",
+        "--init",
+        "torch",
+        "--out",
+        str(out),
+    )
     assert p.returncode == 0, p.stderr
     cfg = json.loads((out / "config.json").read_text())["config"]
-    assert (cfg["target_clip"], cfg["sicm_input"], cfg["init"]) == ("wide", "raw", "torch")
-    assert (cfg["success_threshold"], cfg["stop_patience"], cfg["buffer_scope"]) == (1.0, 5, "worker")
+    assert (cfg["target_clip"], cfg["sicm_input"], cfg["init"]) == (
+        "wide",
+        "raw",
+        "torch",
+    )
+    assert (cfg["success_threshold"], cfg["stop_patience"], cfg["buffer_scope"]) == (
+        1.0,
+        5,
+        "worker",
+    )
     assert "target_clip" not in cfg["switches"]
     done = json.loads((out / "done.json").read_text())
-    assert done["stop_reason"] == "budget" and done["stop_rule"]["success_threshold"] == 1.0
+    assert (
+        done["stop_reason"] == "budget"
+        and done["stop_rule"]["success_threshold"] == 1.0
+    )
 
 
 def test_existing_run_is_not_overwritten_and_checkpoint_errors(cli, tmp_path):
     out = tmp_path / "run"
-    p = cli("train", "--env", "FetchReach-v4", "--epochs", "1", *TINY, "--out", str(out))
+    p = cli(
+        "train", "--env", "FetchReach-v4", "--epochs", "1", *TINY, "--out", str(out)
+    )
     assert p.returncode == 0, p.stderr
     before = {f: (out / f).read_bytes() for f in os.listdir(out)}
-    p = cli("train", "--env", "FetchReach-v4", "--epochs", "1", *TINY, "--out", str(out))
+    p = cli(
+        "train", "--env", "FetchReach-v4", "--epochs", "1", *TINY, "--out", str(out)
+    )
     one_line_error(p, "already holds a run", "--resume")
     assert {f: (out / f).read_bytes() for f in os.listdir(out)} == before
 
@@ -97,9 +149,26 @@ def test_existing_run_is_not_overwritten_and_checkpoint_errors(cli, tmp_path):
 def test_ctrl_c_leaves_a_checkpoint_to_resume(tmp_path):
     out = tmp_path / "run"
     env = dict(os.environ, PYTHONPATH=ROOT)
-    p = subprocess.Popen([sys.executable, "-m", "acder_lite", "train", "--env", "FetchReach-v4",
-                          "--epochs", "50", *TINY, "--out", str(out)], cwd=ROOT, env=env,
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "acder_lite",
+            "train",
+            "--env",
+            "FetchReach-v4",
+            "--epochs",
+            "50",
+            *TINY,
+            "--out",
+            str(out),
+        ],
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     deadline = time.time() + 120
     while not (out / "checkpoint.pt").exists() and time.time() < deadline:
         time.sleep(0.2)
@@ -109,29 +178,64 @@ def test_ctrl_c_leaves_a_checkpoint_to_resume(tmp_path):
     assert p.returncode == 130, err
     assert "--resume" in err and "Traceback" not in err
     from acder_lite.io import load_torch
+
     done = load_torch(str(out / "checkpoint.pt"))["progress"]["cycle"]
     assert done >= 2 and not (out / "done.json").exists()
-    p = subprocess.run([sys.executable, "-m", "acder_lite", "train", "--resume", str(out), "--epochs",
-                        str(done // 2 + 1), "--quiet"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "acder_lite",
+            "train",
+            "--resume",
+            str(out),
+            "--epochs",
+            str(done // 2 + 1),
+            "--quiet",
+        ],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert p.returncode == 0, p.stderr
     assert (out / "done.json").exists()
 
 
 def test_bench_both_dtypes_ends_with_the_bench_line(cli):
-    p = cli("bench", "--env", "FetchReach-v4", "--workers", "1", "--cycles", "1", "--threads", "1",
-            "--update-dtype", "both")
+    p = cli(
+        "bench",
+        "--env",
+        "FetchReach-v4",
+        "--workers",
+        "1",
+        "--cycles",
+        "1",
+        "--threads",
+        "1",
+        "--update-dtype",
+        "both",
+    )
     assert p.returncode == 0, p.stderr
     lines = p.stdout.strip().splitlines()
     assert lines[-1].startswith("bench: sim_ms_per_episode=")
     for key in ("train_ms_per_episode=", "ratio=", "update_gflops=", "matmul_gflops="):
         assert key in lines[-1]
     fields = dict(kv.split("=") for kv in lines[-1].split()[1:])
-    limit, train = float(fields["limit_ms_per_episode"]), float(fields["train_ms_per_episode"])
-    assert 0 < float(fields["sim_ms_per_episode"]) < limit  # the limit is simulation plus the updates
+    limit, train = (
+        float(fields["limit_ms_per_episode"]),
+        float(fields["train_ms_per_episode"]),
+    )
+    assert (
+        0 < float(fields["sim_ms_per_episode"]) < limit
+    )  # the limit is simulation plus the updates
     assert float(fields["share_of_limit"]) == pytest.approx(limit / train, abs=0.01)
     assert float(fields["grid_cpu_ms_per_episode"]) > 0
     for head in ("update_ms float32=", "train_ms_per_episode float32="):
         (cmp,) = [l for l in lines if l.startswith(head)]
         speedup = float(cmp.split("speedup=")[1].split()[0])
         assert speedup > 0
-    one_line_error(cli("bench", "--update-dtype", "float16"), "--update-dtype", "bfloat16")
+    one_line_error(
+        cli("bench", "--update-dtype", "float16"), "--update-dtype", "bfloat16"
+    )

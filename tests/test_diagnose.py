@@ -1,9 +1,12 @@
-"""`diagnose`: S-ICM's error profile and the start pool's geometry, read from a checkpoint."""
+"""`diagnose`: S-ICM's error profile and the start pool's geometry,
+read from a checkpoint."""
+
 import json
 import os
 
 import numpy as np
 import pytest
+import torch
 
 from acder_lite import diagnose as D
 from acder_lite import envs as E
@@ -19,10 +22,14 @@ def test_obs_names_label_the_right_entries(env_id, n):
     assert len(names) == n
     obs = env._get_obs()["observation"]
     grip = env._utils.get_site_xpos(env.model, env.data, "robot0:grip")
-    np.testing.assert_allclose(obs[names.index("grip_pos.x"):names.index("grip_pos.z") + 1], grip)
+    np.testing.assert_allclose(
+        obs[names.index("grip_pos.x") : names.index("grip_pos.z") + 1], grip
+    )
     if env.has_object:
         obj = env._utils.get_site_xpos(env.model, env.data, "object0")
-        np.testing.assert_allclose(obs[names.index("object_pos.x"):names.index("object_pos.z") + 1], obj)
+        np.testing.assert_allclose(
+            obs[names.index("object_pos.x") : names.index("object_pos.z") + 1], obj
+        )
 
 
 def _push_trainer(**kw):
@@ -38,8 +45,12 @@ def test_pool_profile_measures_the_stored_states():
         for _ in range(4):
             E.step(env, rng.uniform(-1, 1, 4))
         obs = env._get_obs()["observation"]
-        dists.append(np.linalg.norm(obs[6:9]))  # object_rel_pos, computed by the env itself
-        tr.selector.pool.append(dict(state=E.get_state(env), goal=np.zeros(3), r_int=0.8 if k % 2 else 0.1))
+        dists.append(
+            np.linalg.norm(obs[6:9])
+        )  # object_rel_pos, computed by the env itself
+        tr.selector.pool.append(
+            dict(state=E.get_state(env), goal=np.zeros(3), r_int=0.8 if k % 2 else 0.1)
+        )
     far = float(np.median(dists))
     p = D.pool_profile(tr, far=far)
     assert p["size"] == 6
@@ -65,12 +76,21 @@ def test_curiosity_profile_does_not_train(tmp_path):
 
 def test_diagnose_cli(tmp_path, cli):
     run = tmp_path / "acder"
-    Trainer(tiny_config(env="FetchPush-v4", method="acder", epochs=1, cycles=2), str(run)).train(progress=False)
+    Trainer(
+        tiny_config(env="FetchPush-v4", method="acder", epochs=1, cycles=2), str(run)
+    ).train(progress=False)
     ckpt = run / "checkpoint.pt"
     mtime = os.path.getmtime(ckpt)
     outs = []
     for k in range(2):
-        r = cli("diagnose", str(run), "--batches", "2", "--json", str(tmp_path / f"d{k}.json"))
+        r = cli(
+            "diagnose",
+            str(run),
+            "--batches",
+            "2",
+            "--json",
+            str(tmp_path / f"d{k}.json"),
+        )
         assert r.returncode == 0, r.stderr
         assert "curiosity:" in r.stdout and "pool:" in r.stdout
         outs.append(json.loads((tmp_path / f"d{k}.json").read_text()))
@@ -80,10 +100,14 @@ def test_diagnose_cli(tmp_path, cli):
 
 def test_diagnose_errors(tmp_path, cli):
     her = tmp_path / "her"
-    Trainer(tiny_config(method="her", epochs=1, cycles=1), str(her)).train(progress=False)
-    for args, needle in [((str(her),), "neither S-ICM nor a start-state pool"),
-                         ((str(tmp_path / "nothing"),), "does not exist"),
-                         ((str(her), "--batches", "0"), "batches=0")]:
+    Trainer(tiny_config(method="her", epochs=1, cycles=1), str(her)).train(
+        progress=False
+    )
+    for args, needle in [
+        ((str(her),), "neither S-ICM nor a start-state pool"),
+        ((str(tmp_path / "nothing"),), "does not exist"),
+        ((str(her), "--batches", "0"), "batches=0"),
+    ]:
         r = cli("diagnose", *args)
         assert r.returncode == 2, (args, r.stderr)
         assert "Traceback" not in r.stderr and needle in r.stderr
@@ -94,38 +118,61 @@ def test_object_motion_of_a_still_policy_is_zero():
     still = lambda o, g: np.zeros((o.shape[0], 4), np.float32)
     m = D.object_motion(still, "FetchPush-v4", episodes=4, workers=2)
     assert m["episodes"] == 4
-    assert m["speed_mean"] < 1e-3 and m["spin_mean"] < 1e-2  # the object only settles on the table
+    assert (
+        m["speed_mean"] < 1e-3 and m["spin_mean"] < 1e-2
+    )  # the object only settles on the table
     assert m["moved_share"] == 0.0 and np.isnan(m["path_over_distance"])
 
 
 def test_object_motion_of_a_pushing_policy():
     """A policy that drives the gripper into the object moves it."""
-    def push(o, g):  # drive the gripper at the object's centre: it pushes the object away
+
+    def push(
+        o, g
+    ):  # drive the gripper at the object's centre: it pushes the object away
         rel = o[:, 6:9]  # object_rel_pos
-        return np.concatenate([np.clip(10 * rel, -1, 1), np.zeros((o.shape[0], 1), np.float32)], 1)
+        return np.concatenate(
+            [np.clip(10 * rel, -1, 1), np.zeros((o.shape[0], 1), np.float32)], 1
+        )
+
     m = D.object_motion(push, "FetchPush-v4", episodes=4, workers=2)
     assert m["speed_mean"] > 0.005 and m["moved_share"] > 0
-    assert m["path_over_distance"] >= 1.0  # a path is never shorter than its displacement
+    assert (
+        m["path_over_distance"] >= 1.0
+    )  # a path is never shorter than its displacement
 
 
 def test_diagnose_motion_needs_only_the_policy(tmp_path, cli):
     run = tmp_path / "her"
-    Trainer(tiny_config(env="FetchPush-v4", method="her", epochs=1, cycles=1), str(run)).train(progress=False)
+    Trainer(
+        tiny_config(env="FetchPush-v4", method="her", epochs=1, cycles=1), str(run)
+    ).train(progress=False)
     os.remove(run / "checkpoint.pt")
     r = cli("diagnose", str(run), "--episodes", "2", "--json", str(tmp_path / "m.json"))
     assert r.returncode == 0, r.stderr
     m = json.loads((tmp_path / "m.json").read_text())["motion"]
-    assert m["episodes"] == 4 and 0.0 <= m["success"] <= 1.0  # rounded up to the 4 test envs
+    assert (
+        m["episodes"] == 4 and 0.0 <= m["success"] <= 1.0
+    )  # rounded up to the 4 test envs
     reach = tmp_path / "reach"
-    Trainer(tiny_config(method="her", epochs=1, cycles=1), str(reach)).train(progress=False)
+    Trainer(tiny_config(method="her", epochs=1, cycles=1), str(reach)).train(
+        progress=False
+    )
     r = cli("diagnose", str(reach), "--episodes", "2")
-    assert r.returncode == 2 and "has no object" in r.stderr and "Traceback" not in r.stderr
+    assert (
+        r.returncode == 2
+        and "has no object" in r.stderr
+        and "Traceback" not in r.stderr
+    )
 
 
 def test_diagnose_refuses_a_checkpoint_of_another_state_layout(tmp_path, cli):
     import torch
+
     run = tmp_path / "acder"
-    Trainer(tiny_config(env="FetchPush-v4", method="acder", epochs=1, cycles=1), str(run)).train(progress=False)
+    Trainer(
+        tiny_config(env="FetchPush-v4", method="acder", epochs=1, cycles=1), str(run)
+    ).train(progress=False)
     ck = torch.load(run / "checkpoint.pt", weights_only=False)
     ck["buffer"]["state"] = np.zeros(ck["buffer"]["state"].shape[:2] + (292,))
     torch.save(ck, run / "checkpoint.pt")
@@ -139,8 +186,10 @@ MULTI = "FetchPushMultiStep-v0"
 
 
 def _place(env, block: int, xy) -> None:
-    """Put block `block` at table xy (its resting height kept) and recompute the kinematics."""
+    """Put block `block` at table xy (its resting height kept) and recompute
+    the kinematics."""
     import mujoco
+
     joint = f"object{block}:joint"
     q = env._utils.get_joint_qpos(env.model, env.data, joint).copy()
     q[:2] = xy
@@ -152,14 +201,24 @@ def test_object_fields_name_each_block_of_the_multistep_push():
     env = E.make_env(MULTI, seed=2)
     obs = env._get_obs()["observation"]
     for k, s in enumerate(D.object_fields(env, "pos")):
-        np.testing.assert_allclose(obs[s], env._utils.get_site_xpos(env.model, env.data, f"object{k}"))
-    assert [(s.start, s.stop) for s in D.object_fields(env, "velr")] == [(29, 32), (32, 35)]
-    assert [(s.start, s.stop) for s in D.object_fields(E.make_env("FetchPush-v4", seed=0), "velr")] == [(17, 20)]
+        np.testing.assert_allclose(
+            obs[s], env._utils.get_site_xpos(env.model, env.data, f"object{k}")
+        )
+    assert [(s.start, s.stop) for s in D.object_fields(env, "velr")] == [
+        (29, 32),
+        (32, 35),
+    ]
+    assert [
+        (s.start, s.stop)
+        for s in D.object_fields(E.make_env("FetchPush-v4", seed=0), "velr")
+    ] == [(17, 20)]
 
 
 def test_diagnose_names_all_46_entries_of_a_multistep_checkpoint(tmp_path):
     run = tmp_path / "acder"
-    Trainer(tiny_config(env=MULTI, method="acder", epochs=1, cycles=1), str(run)).train(progress=False)
+    Trainer(tiny_config(env=MULTI, method="acder", epochs=1, cycles=1), str(run)).train(
+        progress=False
+    )
     d = D.diagnose(str(run), batches=1, top=46)
     assert d["env"] == MULTI
     names = [n for n, _ in d["curiosity"]["top_entries"]]
@@ -178,18 +237,31 @@ def test_pool_profile_reports_each_block_of_the_multistep_push():
     for k, on_target in enumerate([(True, False), (True, True), (False, False)]):
         env.reset(seed=k)
         for b, on in enumerate(on_target):  # a block on its target, or 10 cm beside it
-            _place(env, b, goal[3 * b:3 * b + 2] + (0 if on else np.array([0.1, 0.0])))
+            _place(
+                env, b, goal[3 * b : 3 * b + 2] + (0 if on else np.array([0.1, 0.0]))
+            )
         grip = env._utils.get_site_xpos(env.model, env.data, "robot0:grip")
-        blocks = [env._utils.get_site_xpos(env.model, env.data, f"object{b}") for b in range(2)]
+        blocks = [
+            env._utils.get_site_xpos(env.model, env.data, f"object{b}")
+            for b in range(2)
+        ]
         expected.append([np.linalg.norm(grip - p) for p in blocks])
-        tr.selector.pool.append(dict(state=E.get_state(env), goal=goal, r_int=0.9 if k else 0.1))
+        tr.selector.pool.append(
+            dict(state=E.get_state(env), goal=goal, r_int=0.9 if k else 0.1)
+        )
     p = D.pool_profile(tr, far=0.2)
-    assert p["size"] == 3 and p["distance_to"] == "nearest block" and len(p["blocks"]) == 2
+    assert (
+        p["size"] == 3 and p["distance_to"] == "nearest block" and len(p["blocks"]) == 2
+    )
     expected = np.array(expected)
     assert p["distance_median"] == pytest.approx(np.median(expected.min(1)), abs=1e-9)
     for b in range(2):
-        assert p["blocks"][b]["distance_median"] == pytest.approx(np.median(expected[:, b]), abs=1e-9)
-        assert p["blocks"][b]["distance_max"] == pytest.approx(expected[:, b].max(), abs=1e-9)
+        assert p["blocks"][b]["distance_median"] == pytest.approx(
+            np.median(expected[:, b]), abs=1e-9
+        )
+        assert p["blocks"][b]["distance_max"] == pytest.approx(
+            expected[:, b].max(), abs=1e-9
+        )
     assert p["blocks"][0]["share_on_target"] == pytest.approx(2 / 3)
     assert p["blocks"][1]["share_on_target"] == pytest.approx(1 / 3)
     assert p["blocks"][1]["to_target_median"] == pytest.approx(0.1, abs=2e-3)
@@ -199,13 +271,21 @@ def test_pool_profile_reports_each_block_of_the_multistep_push():
 
 def test_object_motion_is_per_block_on_the_multistep_push():
     """A policy that pushes block 1 only: block 1 moves, block 0 stays where it is."""
+
     def push1(o, g):
         rel = o[:, 12:15]  # object1_rel_pos
-        return np.concatenate([np.clip(10 * rel, -1, 1), np.zeros((o.shape[0], 1), np.float32)], 1)
+        return np.concatenate(
+            [np.clip(10 * rel, -1, 1), np.zeros((o.shape[0], 1), np.float32)], 1
+        )
+
     m = D.object_motion(push1, MULTI, episodes=2, workers=2)
     assert m["episodes"] == 2 and len(m["blocks"]) == 2 and "speed_mean" not in m
     b0, b1 = m["blocks"]
-    assert b1["speed_mean"] > 0.005 and b1["moved_share"] > 0 and b1["path_over_distance"] >= 1.0
+    assert (
+        b1["speed_mean"] > 0.005
+        and b1["moved_share"] > 0
+        and b1["path_over_distance"] >= 1.0
+    )
     assert b0["speed_mean"] < b1["speed_mean"] / 10
     text = D.to_text(dict(run="r", method="her", env=MULTI, motion=m))
     assert text.count("block ") == 2
@@ -213,6 +293,52 @@ def test_object_motion_is_per_block_on_the_multistep_push():
 
 def test_object_motion_error_lists_every_object_task():
     from acder_lite.config import ConfigError, OBJECT_ENVS
+
     with pytest.raises(ConfigError) as e:
-        D.object_motion(lambda o, g: np.zeros((len(o), 4)), "FetchReach-v4", episodes=1, workers=1)
+        D.object_motion(
+            lambda o, g: np.zeros((len(o), 4)), "FetchReach-v4", episodes=1, workers=1
+        )
     assert all(env in str(e.value) for env in OBJECT_ENVS)
+
+
+def test_minibatch_errors_match_the_trainers_intrinsic_reward():
+    tr = _push_trainer(sicm_input="raw")
+    tr.train_cycle()
+    before = [p.detach().clone() for p in tr.curiosity.parameters()]
+    out = D.minibatch_errors(tr, batches=3)
+    assert all(
+        torch.equal(a, b) for a, b in zip(before, tr.curiosity.parameters())
+    )  # no training
+    n = 3 * tr.cfg.batch_size * tr.cfg.workers
+    assert (
+        out["err"].shape == out["successful"].shape == (n,) and out["eta"] == tr.cfg.eta
+    )
+    assert out["successful"].dtype == bool and (out["err"] >= 0).all()
+
+
+@pytest.mark.parametrize("sicm_input", ["normalised", "raw"])
+def test_episode_errors_are_eq4_of_each_step(sicm_input):
+    from acder_lite.rewards import intrinsic_reward
+    from acder_lite.trainer import run_episodes
+
+    tr = _push_trainer(sicm_input=sicm_input)
+    ep = run_episodes(tr.envs, tr.explore_act, tr.T)
+    err = D.episode_errors(tr, ep)
+    assert err.shape == (len(tr.envs), tr.T)
+    clipped = D.episode_errors(tr, ep, eta=tr.cfg.eta)
+    np.testing.assert_allclose(clipped, np.minimum(err, tr.cfg.eta))
+    # one step by hand, through the trainer's own inputs
+    b = dict(o=ep["o"][:1, 3], o2=ep["o"][:1, 4], g=ep["g"][:1, 3], u=ep["u"][:1, 3])
+    tb = tr.batch_tensors(b)
+    s, s2 = tr.curiosity_inputs(b, tb)
+    with torch.no_grad():
+        want = intrinsic_reward(tr.curiosity(s, tb["u"]).numpy(), s2.numpy(), np.inf)
+    np.testing.assert_allclose(err[0, 3], want[0], rtol=1e-6)
+
+
+def test_errors_need_sicm():
+    from acder_lite.config import ConfigError
+
+    tr = Trainer(tiny_config(method="her"))
+    with pytest.raises(ConfigError, match="no S-ICM"):
+        D.minibatch_errors(tr)

@@ -15,7 +15,7 @@ def test_restored_state_reproduces_next_20_steps_exactly(env_id):
     actions = rng.uniform(-1, 1, (20, 4))
     ref = [E.step(a, u)[0] for u in actions]
 
-    b = E.make_env(env_id, seed=99)        # a fresh env with another episode under way
+    b = E.make_env(env_id, seed=99)  # a fresh env with another episode under way
     b.goal = a.goal.copy()
     E.set_state(b, saved)
     for u, want in zip(actions, ref):
@@ -32,10 +32,10 @@ def test_restart_reproduces_stored_observation(env_id):
         obs = E.step(a, rng.uniform(-1, 1, 4))[0]
     saved, goal = E.get_state(a), a.goal.copy()
     b = E.make_env(env_id, seed=5)
-    got = E.restart_from(b, saved)                 # restart_goal="resample": the goal is fresh
+    got = E.restart_from(b, saved)  # restart_goal="resample": the goal is fresh
     np.testing.assert_array_equal(got["observation"], obs["observation"])
     np.testing.assert_array_equal(got["achieved_goal"], obs["achieved_goal"])
-    got = E.restart_from(b, saved, goal)            # restart_goal="episode": the stored goal
+    got = E.restart_from(b, saved, goal)  # restart_goal="episode": the stored goal
     np.testing.assert_array_equal(got["desired_goal"], goal)
 
 
@@ -46,7 +46,9 @@ def test_unknown_env_is_a_config_error():
 
 def test_seeding_is_deterministic():
     a, b = E.make_env("FetchPush-v4", seed=7), E.make_env("FetchPush-v4", seed=7)
-    np.testing.assert_array_equal(a._get_obs()["observation"], b._get_obs()["observation"])
+    np.testing.assert_array_equal(
+        a._get_obs()["observation"], b._get_obs()["observation"]
+    )
     np.testing.assert_array_equal(a.goal, b.goal)
 
 
@@ -57,4 +59,4 @@ def test_step_matches_the_env_step_up_to_the_kinematics_refresh():
     theirs, _, _, _, info = b.step(u)
     np.testing.assert_allclose(mine["observation"], theirs["observation"], atol=2e-3)
     assert ok == info["is_success"]
-    np.testing.assert_array_equal(a.data.qpos, b.data.qpos)   # same physics step
+    np.testing.assert_array_equal(a.data.qpos, b.data.qpos)  # same physics step

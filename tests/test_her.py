@@ -7,8 +7,8 @@ from acder_lite.her import sample_her_transitions
 
 @pytest.fixture(scope="module")
 def episodes():
-    """Hand-made episodes whose achieved goals encode (episode, step), so a relabelled goal says
-    exactly where it came from."""
+    """Hand-made episodes whose achieved goals encode (episode, step), so a relabelled
+    goal says exactly where it came from."""
     n, T = 30, 50
     ag = np.zeros((n, T + 1, 3), np.float32)
     ag[..., 0] = np.arange(n)[:, None]
@@ -24,10 +24,10 @@ def test_relabelled_goals_come_from_a_later_step_of_the_same_episode(episodes):
     env = make_env("FetchReach-v4", seed=0)
     b = sample_her_transitions(episodes, 20_000, 0.8, env.compute_reward, rng)
     h = b["her"]
-    assert np.all(b["g"][h, 0] == b["ep"][h])          # same episode
-    assert np.all(b["g"][h, 1] > b["t"][h])            # strictly later step
+    assert np.all(b["g"][h, 0] == b["ep"][h])  # same episode
+    assert np.all(b["g"][h, 1] > b["t"][h])  # strictly later step
     assert np.all(b["g"][h, 1] <= 50)
-    assert np.all(b["g"][~h] == -7.0)                  # the others keep their goal
+    assert np.all(b["g"][~h] == -7.0)  # the others keep their goal
     # relabel ratio 0.8 = 1 - 1/(1+k), k=4; 5 sigma of a binomial proportion
     sigma = np.sqrt(0.8 * 0.2 / 20_000)
     assert abs(h.mean() - 0.8) < 5 * sigma
@@ -41,7 +41,12 @@ def test_rewards_match_compute_reward():
     n, T = 4, 50
     ag = rng.uniform(0, 0.2, (n, T + 1, 3)).astype(np.float32)
     g = rng.uniform(0, 0.2, (n, T, 3)).astype(np.float32)
-    eps = dict(o=np.zeros((n, T + 1, 2), np.float32), ag=ag, g=g, u=np.zeros((n, T, 4), np.float32))
+    eps = dict(
+        o=np.zeros((n, T + 1, 2), np.float32),
+        ag=ag,
+        g=g,
+        u=np.zeros((n, T, 4), np.float32),
+    )
     b = sample_her_transitions(eps, 4000, 0.8, env.compute_reward, rng)
     d = np.linalg.norm(b["ag2"] - b["g"], axis=-1)
     np.testing.assert_array_equal(b["r"], -(d > 0.05).astype(np.float32))
@@ -53,5 +58,7 @@ def test_rewards_match_compute_reward():
 
 
 def test_no_her_when_future_p_is_zero(episodes):
-    b = sample_her_transitions(episodes, 1000, 0.0, lambda a, g, i: np.zeros(len(a)), np.random.default_rng(2))
+    b = sample_her_transitions(
+        episodes, 1000, 0.0, lambda a, g, i: np.zeros(len(a)), np.random.default_rng(2)
+    )
     assert not b["her"].any() and np.all(b["g"] == -7.0)

@@ -1,4 +1,6 @@
-"""The DDPG losses on a fixed batch, with networks set to constants so the values are known."""
+"""The DDPG losses on a fixed batch, with networks set to constants so the
+values are known."""
+
 import numpy as np
 import pytest
 import torch
@@ -20,19 +22,25 @@ def const_actor(b):
     a = Actor(3, 2, hidden=4, layers=1)
     for p in a.parameters():
         torch.nn.init.zeros_(p)
-    a.net[-2].bias.data.fill_(b)          # output = tanh(b)
+    a.net[-2].bias.data.fill_(b)  # output = tanh(b)
     return a
 
 
 def batch():
-    return dict(x=torch.randn(4, 3), x2=torch.randn(4, 3), u=torch.rand(4, 2),
-                r=torch.tensor([-1.0, 0.0, -1.0, -1.0]))
+    return dict(
+        x=torch.randn(4, 3),
+        x2=torch.randn(4, 3),
+        u=torch.rand(4, 2),
+        r=torch.tensor([-1.0, 0.0, -1.0, -1.0]),
+    )
 
 
 def test_loss_q_by_hand():
     b = batch()
     # Q = 2, Q' = -10: y = r + 0.98 * -10 = [-10.8, -9.8, -10.8, -10.8]; (y - 2)^2 mean
-    loss, td = compute_loss_q(const_critic(2.0), const_actor(0.3), const_critic(-10.0), b, 0.98, (-50.0, 0.0))
+    loss, td = compute_loss_q(
+        const_critic(2.0), const_actor(0.3), const_critic(-10.0), b, 0.98, (-50.0, 0.0)
+    )
     y = np.array([-10.8, -9.8, -10.8, -10.8])
     assert loss.item() == pytest.approx(np.mean((y - 2) ** 2), rel=1e-6)
     np.testing.assert_allclose(td.numpy(), y - 2, rtol=1e-6)
@@ -41,13 +49,31 @@ def test_loss_q_by_hand():
 def test_loss_q_target_clip_and_weights():
     b = batch()
     # Q' = -100: y = r - 98 clipped to -1/(1-0.98) = -50; Q = 0
-    loss, _ = compute_loss_q(const_critic(0.0), const_actor(0.0), const_critic(-100.0), b, 0.98, (-50.0, 0.0))
+    loss, _ = compute_loss_q(
+        const_critic(0.0), const_actor(0.0), const_critic(-100.0), b, 0.98, (-50.0, 0.0)
+    )
     assert loss.item() == pytest.approx(2500.0)
     # Q' = +10 with the upper clip 0: y = r clipped to <= 0
     w = torch.tensor([1.0, 0.0, 0.5, 0.5])
-    loss, _ = compute_loss_q(const_critic(0.0), const_actor(0.0), const_critic(10.0), b, 0.98, (-50.0, 0.0), w)
+    loss, _ = compute_loss_q(
+        const_critic(0.0),
+        const_actor(0.0),
+        const_critic(10.0),
+        b,
+        0.98,
+        (-50.0, 0.0),
+        w,
+    )
     assert loss.item() == pytest.approx((1.0 * 0 + 0 + 0.5 * 0 + 0.5 * 0) / 4)
-    loss, _ = compute_loss_q(const_critic(1.0), const_actor(0.0), const_critic(10.0), b, 0.98, (-50.0, 0.0), w)
+    loss, _ = compute_loss_q(
+        const_critic(1.0),
+        const_actor(0.0),
+        const_critic(10.0),
+        b,
+        0.98,
+        (-50.0, 0.0),
+        w,
+    )
     assert loss.item() == pytest.approx((1.0 * 1 + 0 + 0.5 * 1 + 0.5 * 1) / 4)
 
 
@@ -61,6 +87,7 @@ def test_loss_pi_by_hand():
 def test_actor_loss_does_not_train_the_critic():
     from acder_lite.config import Config
     from acder_lite.ddpg import DDPG
+
     torch.manual_seed(0)
     cfg = Config(hidden=16, layers=2).resolve()
     agent = DDPG(3, 2, cfg)
@@ -69,7 +96,9 @@ def test_actor_loss_does_not_train_the_critic():
     ref = DDPG(3, 2, cfg)
     ref.load_state_dict(agent.state_dict())
     agent.update(b, (-50.0, 0.0))
-    loss, _ = compute_loss_q(ref.critic, ref.actor_targ, ref.critic_targ, b, cfg.gamma, (-50.0, 0.0))
+    loss, _ = compute_loss_q(
+        ref.critic, ref.actor_targ, ref.critic_targ, b, cfg.gamma, (-50.0, 0.0)
+    )
     ref.q_opt.zero_grad()
     loss.backward()
     ref.q_opt.step()
@@ -78,12 +107,18 @@ def test_actor_loss_does_not_train_the_critic():
 
 
 def test_bfloat16_update_follows_float32():
-    """`update_dtype='bfloat16'`: the same step as fp32 up to bf16 rounding, on fp32 weights."""
+    """`update_dtype='bfloat16'`: the same step as fp32 up to bf16 rounding,
+    on fp32 weights."""
     from acder_lite.config import Config
     from acder_lite.ddpg import DDPG
+
     torch.manual_seed(0)
-    b = dict(x=torch.randn(512, 10), x2=torch.randn(512, 10), u=torch.rand(512, 4) * 2 - 1,
-             r=-(torch.rand(512) < 0.8).float())
+    b = dict(
+        x=torch.randn(512, 10),
+        x2=torch.randn(512, 10),
+        u=torch.rand(512, 4) * 2 - 1,
+        r=-(torch.rand(512) < 0.8).float(),
+    )
     agents = {}
     for dt in ("float32", "bfloat16"):
         torch.manual_seed(1)
@@ -97,8 +132,11 @@ def test_bfloat16_update_follows_float32():
     for net in ("critic", "actor"):
         pf = list(getattr(agents["float32"], net).parameters())
         ph = list(getattr(agents["bfloat16"], net).parameters())
-        assert all(p.dtype == torch.float32 and p.grad.dtype == torch.float32 for p in ph)
-        # the gradients of this step (left in .grad): close as a whole, not bit-identical
+        assert all(
+            p.dtype == torch.float32 and p.grad.dtype == torch.float32 for p in ph
+        )
+        # the gradients of this step (left in .grad): close as a whole,
+        # not bit-identical
         gf = torch.cat([p.grad.flatten() for p in pf])
         gh = torch.cat([p.grad.flatten() for p in ph])
         rel = float((gh - gf).norm() / gf.norm())
@@ -108,6 +146,7 @@ def test_bfloat16_update_follows_float32():
 def test_polyak():
     from acder_lite.config import Config
     from acder_lite.ddpg import DDPG
+
     cfg = Config(hidden=8, layers=1, polyak=0.95).resolve()
     agent = DDPG(3, 2, cfg)
     for p in agent.actor.parameters():
@@ -122,36 +161,48 @@ def test_polyak():
 @pytest.mark.parametrize("cls", [SICM, ICM])
 def test_curiosity_losses_decrease_on_a_fixed_batch(cls):
     from acder_lite.rewards import intrinsic_reward
+
     torch.manual_seed(0)
     s, a = torch.randn(256, 6), torch.rand(256, 2) * 2 - 1
-    s2 = s + 0.1 * torch.cat([a, a, a], -1)        # a simple dynamics to learn
-    m = cls(6, 2, hidden=64, lr=1e-3) if cls is SICM else cls(6, 2, feat_dim=16, hidden=64, lr=1e-3)
+    s2 = s + 0.1 * torch.cat([a, a, a], -1)  # a simple dynamics to learn
+    m = (
+        cls(6, 2, hidden=64, lr=1e-3)
+        if cls is SICM
+        else cls(6, 2, feat_dim=16, hidden=64, lr=1e-3)
+    )
     first = [float(m.step(s, a, s2)[2]) for _ in range(5)]
     for _ in range(300):
         pred, target, loss = m.step(s, a, s2)
     assert float(loss) < 0.3 * np.mean(first)
-    r = intrinsic_reward(pred.numpy(), target.numpy(), 0.8)   # Eq. 4 of what step returns
+    r = intrinsic_reward(
+        pred.numpy(), target.numpy(), 0.8
+    )  # Eq. 4 of what step returns
     assert r.shape == (256,) and float(r.min()) >= 0 and float(r.max()) <= 0.8
     assert not pred.requires_grad and not target.requires_grad
 
 
 def test_sicm_reward_is_eq4_before_the_update():
     from acder_lite.rewards import intrinsic_reward
+
     torch.manual_seed(1)
     m = SICM(5, 2, hidden=16)
     s, a, s2 = torch.randn(8, 5), torch.randn(8, 2), torch.randn(8, 5)
     with torch.no_grad():
         want = intrinsic_reward(m(s, a).numpy(), s2.numpy(), 0.8)
     pred, target, _ = m.step(s, a, s2)
-    torch.testing.assert_close(target, s2)                 # S-ICM's target is s' itself
-    np.testing.assert_allclose(intrinsic_reward(pred.numpy(), target.numpy(), 0.8), want, rtol=1e-5)
-    with torch.no_grad():                                  # ... and the model did take a step
+    torch.testing.assert_close(target, s2)  # S-ICM's target is s' itself
+    np.testing.assert_allclose(
+        intrinsic_reward(pred.numpy(), target.numpy(), 0.8), want, rtol=1e-5
+    )
+    with torch.no_grad():  # ... and the model did take a step
         assert not torch.allclose(m(s, a), pred)
 
 
 def test_icm_reward_is_on_its_features_before_the_update():
-    """ICM's (pred, target) are phi(s') as its forward model predicts it and phi(s') itself."""
+    """ICM's (pred, target) are phi(s') as its forward model predicts it and
+    phi(s') itself."""
     from acder_lite.rewards import intrinsic_reward
+
     torch.manual_seed(2)
     m = ICM(5, 2, feat_dim=4, hidden=16)
     s, a, s2 = torch.randn(8, 5), torch.randn(8, 2), torch.randn(8, 5)
@@ -163,4 +214,6 @@ def test_icm_reward_is_on_its_features_before_the_update():
     torch.testing.assert_close(target, f2)
     torch.testing.assert_close(pred, want_pred)
     r = intrinsic_reward(pred.numpy(), target.numpy(), 0.8)
-    np.testing.assert_allclose(r, np.clip(0.5 * ((want_pred - f2) ** 2).sum(-1).numpy(), 0, 0.8), rtol=1e-5)
+    np.testing.assert_allclose(
+        r, np.clip(0.5 * ((want_pred - f2) ** 2).sum(-1).numpy(), 0, 0.8), rtol=1e-5
+    )

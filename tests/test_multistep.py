@@ -1,8 +1,11 @@
-"""FetchPushMultiStep-v0 (acder_lite.multistep): two blocks, two targets, success only with both.
+"""FetchPushMultiStep-v0 (acder_lite.multistep): two blocks, two targets,
+success only with both.
 
-Spaces (gymnasium's checker), the 2-block reward and success, batched rewards, seeding, the reset
-rules, exact state restore, bad ids, and a scripted pusher showing the task is solvable in 100 steps.
+Spaces (gymnasium's checker), the 2-block reward and success, batched rewards, seeding,
+the reset rules, exact state restore, bad ids, and a scripted pusher showing the task is
+solvable in 100 steps.
 """
+
 import warnings
 
 import gymnasium as gym
@@ -24,7 +27,8 @@ def env():
 
 
 def place(env, xy0, xy1):
-    """Put the blocks at xy0, xy1 (resting height, at rest) and recompute the kinematics."""
+    """Put the blocks at xy0, xy1 (resting height,
+    at rest) and recompute the kinematics."""
     for name, xy in (("object0:joint", xy0), ("object1:joint", xy1)):
         q = env._utils.get_joint_qpos(env.model, env.data, name)
         q[:2] = xy
@@ -39,19 +43,35 @@ def test_gymnasium_env_checker_passes():
     assert e.spec.max_episode_steps == M.MAX_EPISODE_STEPS == 100
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        # the checker's render check opens a window (render_modes includes "human"): skipped
+        # the checker's render check opens a window
+        # (render_modes includes "human"): skipped
         check_env(e.unwrapped, skip_render_check=True)
     # only the warnings FetchPush-v4 gets too (its Box spaces are unbounded)
-    assert all("infinity" in str(w.message) for w in caught), [str(w.message) for w in caught]
+    assert all("infinity" in str(w.message) for w in caught), [
+        str(w.message) for w in caught
+    ]
     e.close()
 
 
 def test_spaces_and_shapes(env):
     sp = env.observation_space
-    assert sp["observation"].shape == (40,) and sp["achieved_goal"].shape == (6,) and sp["desired_goal"].shape == (6,)
-    assert env.action_space.shape == (4,) and env.block_gripper and env.has_object and env.n_objects == 2
+    assert (
+        sp["observation"].shape == (40,)
+        and sp["achieved_goal"].shape == (6,)
+        and sp["desired_goal"].shape == (6,)
+    )
+    assert (
+        env.action_space.shape == (4,)
+        and env.block_gripper
+        and env.has_object
+        and env.n_objects == 2
+    )
     obs = env._get_obs()
-    assert obs["observation"].shape == (40,) and obs["achieved_goal"].shape == (6,) and obs["desired_goal"].shape == (6,)
+    assert (
+        obs["observation"].shape == (40,)
+        and obs["achieved_goal"].shape == (6,)
+        and obs["desired_goal"].shape == (6,)
+    )
     assert sum(n for _, n in M.OBS_LAYOUT) == 40
     names = E.obs_names(env)
     assert len(names) == 40 and names[:3] == ["grip_pos.x", "grip_pos.y", "grip_pos.z"]
@@ -61,9 +81,11 @@ def test_spaces_and_shapes(env):
     grip = o[:3]
     for i, site in enumerate(M.OBJECTS):
         pos = env._utils.get_site_xpos(env.model, env.data, site)
-        np.testing.assert_array_equal(o[3 + 3 * i:6 + 3 * i], pos)               # object_pos
-        np.testing.assert_allclose(o[9 + 3 * i:12 + 3 * i], pos - grip)          # object_rel_pos
-        np.testing.assert_array_equal(obs["achieved_goal"][3 * i:3 * i + 3], pos)
+        np.testing.assert_array_equal(o[3 + 3 * i : 6 + 3 * i], pos)  # object_pos
+        np.testing.assert_allclose(
+            o[9 + 3 * i : 12 + 3 * i], pos - grip
+        )  # object_rel_pos
+        np.testing.assert_array_equal(obs["achieved_goal"][3 * i : 3 * i + 3], pos)
     assert E.horizon(ID) == 100
 
 
@@ -73,6 +95,7 @@ def test_model_is_derived_from_the_installed_push_xml(env):
     assert env.fullpath == M.model_path() and not env.fullpath.startswith(M.ASSETS)
     m = env.model
     import mujoco
+
     for name in ("object0:joint", "object1:joint"):
         j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
         assert j >= 0 and m.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE
@@ -82,7 +105,9 @@ def test_model_is_derived_from_the_installed_push_xml(env):
     env._render_callback()  # what render() draws: each target site on its block's goal
     for i, name in enumerate(M.TARGETS):
         sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name)
-        np.testing.assert_allclose(env.data.site_xpos[sid], env.goal[3 * i:3 * i + 3], atol=1e-12)
+        np.testing.assert_allclose(
+            env.data.site_xpos[sid], env.goal[3 * i : 3 * i + 3], atol=1e-12
+        )
     # the robot and block 0 start exactly as on FetchPush-v4
     push = E.make_env("FetchPush-v4", seed=0)
     np.testing.assert_array_equal(env.initial_gripper_xpos, push.initial_gripper_xpos)
@@ -95,18 +120,21 @@ def test_reward_and_success_on_hand_placed_blocks(env):
     env.reset(seed=1)
     g = env.goal.reshape(2, 3)
     far0, far1 = g[0, :2] + [0.0, 0.12], g[1, :2] + [0.12, 0.0]
-    cases = [((g[0, :2], g[1, :2]), 0.0, True),        # both on target
-             ((g[0, :2] + 0.03, g[1, :2]), 0.0, True),  # 4.2 cm off: still within 5 cm
-             ((g[0, :2], far1), -1.0, False),          # one block on target is not enough
-             ((far0, g[1, :2]), -1.0, False),
-             ((far0, far1), -1.0, False),
-             ((g[1, :2], g[0, :2]), -1.0, False)]       # each on the other's target
+    cases = [
+        ((g[0, :2], g[1, :2]), 0.0, True),  # both on target
+        ((g[0, :2] + 0.03, g[1, :2]), 0.0, True),  # 4.2 cm off: still within 5 cm
+        ((g[0, :2], far1), -1.0, False),  # one block on target is not enough
+        ((far0, g[1, :2]), -1.0, False),
+        ((far0, far1), -1.0, False),
+        ((g[1, :2], g[0, :2]), -1.0, False),
+    ]  # each on the other's target
     for (xy0, xy1), reward, success in cases:
         obs = place(env, xy0, xy1)
         ag = obs["achieved_goal"]
         assert env.compute_reward(ag, env.goal, {}) == reward
         assert bool(env._is_success(ag, env.goal)) is success
-    # env.step's info and reward agree (both blocks on target; a zero action keeps them there)
+    # env.step's info and reward agree (both blocks on target;
+    # a zero action keeps them there)
     place(env, g[0, :2], g[1, :2])
     _, r, term, trunc, info = env.step(np.zeros(4))
     assert r == 0.0 and info["is_success"] == 1.0 and not term and not trunc
@@ -120,12 +148,16 @@ def test_compute_reward_is_vectorised(env):
     assert batch.shape == (300,) and batch.dtype == np.float32
     rows = np.array([env.compute_reward(a, b, None) for a, b in zip(ag, g)])
     np.testing.assert_array_equal(batch, rows)
-    assert 0 < (batch == 0).sum() < 300                       # both outcomes occur
+    assert 0 < (batch == 0).sum() < 300  # both outcomes occur
     d = np.linalg.norm((ag - g).reshape(300, 2, 3), axis=-1)
     np.testing.assert_array_equal(batch, np.where((d <= 0.05).all(1), 0.0, -1.0))
     np.testing.assert_array_equal(env._is_success(ag, g), (d < 0.05).all(1))
     # HER hands float32 goals with extra leading axes
-    r2 = env.compute_reward(ag.reshape(3, 100, 6).astype(np.float32), g.reshape(3, 100, 6).astype(np.float32), None)
+    r2 = env.compute_reward(
+        ag.reshape(3, 100, 6).astype(np.float32),
+        g.reshape(3, 100, 6).astype(np.float32),
+        None,
+    )
     assert r2.shape == (3, 100)
     with pytest.raises(ValueError):
         env.compute_reward(ag[:, :3], g[:, :3], None)
@@ -137,9 +169,13 @@ def test_seeded_resets_are_deterministic():
         oa, ob = a.reset(seed=seed)[0], b.reset(seed=seed)[0]
         for k in oa:
             np.testing.assert_array_equal(oa[k], ob[k])
-    assert not np.array_equal(a.reset(seed=1)[0]["desired_goal"], a.reset(seed=2)[0]["desired_goal"])
+    assert not np.array_equal(
+        a.reset(seed=1)[0]["desired_goal"], a.reset(seed=2)[0]["desired_goal"]
+    )
     c, d = E.make_env(ID, seed=7), E.make_env(ID, seed=7)
-    np.testing.assert_array_equal(c._get_obs()["observation"], d._get_obs()["observation"])
+    np.testing.assert_array_equal(
+        c._get_obs()["observation"], d._get_obs()["observation"]
+    )
     np.testing.assert_array_equal(c.goal, d.goal)
 
 
@@ -154,12 +190,18 @@ def test_reset_constraints_hold_over_many_seeds(env):
     b, t = np.array(blocks), np.array(targets)
     off_b, off_t = b[..., :2] - grip, t[..., :2] - grip
     assert np.abs(off_b).max() <= 0.15 and np.abs(off_t).max() <= 0.15
-    assert np.linalg.norm(off_b, axis=-1).min() >= 0.1                     # away from the gripper
-    assert np.linalg.norm(b[:, 0, :2] - b[:, 1, :2], axis=-1).min() >= 0.1  # and from each other
+    assert np.linalg.norm(off_b, axis=-1).min() >= 0.1  # away from the gripper
+    assert (
+        np.linalg.norm(b[:, 0, :2] - b[:, 1, :2], axis=-1).min() >= 0.1
+    )  # and from each other
     assert np.linalg.norm(t[:, 0, :2] - t[:, 1, :2], axis=-1).min() >= 0.1
-    np.testing.assert_allclose(b[..., 2], env.height_offset, atol=1e-9)    # resting on the table
-    np.testing.assert_array_equal(t[..., 2], env.height_offset)            # targets on the table
-    assert np.abs(off_b).max() > 0.13 and np.abs(off_t).max() > 0.13       # the full range is used
+    np.testing.assert_allclose(
+        b[..., 2], env.height_offset, atol=1e-9
+    )  # resting on the table
+    np.testing.assert_array_equal(t[..., 2], env.height_offset)  # targets on the table
+    assert (
+        np.abs(off_b).max() > 0.13 and np.abs(off_t).max() > 0.13
+    )  # the full range is used
 
 
 def test_restored_state_replays_20_steps_exactly():
@@ -172,7 +214,7 @@ def test_restored_state_replays_20_steps_exactly():
     actions = rng.uniform(-1, 1, (20, 4))
     ref = [E.step(a, u) for u in actions]
 
-    b = E.make_env(ID, seed=99)              # a fresh env with another episode under way
+    b = E.make_env(ID, seed=99)  # a fresh env with another episode under way
     b.goal = a.goal.copy()
     E.set_state(b, saved)
     for u, (want, ok) in zip(actions, ref):
@@ -180,7 +222,8 @@ def test_restored_state_replays_20_steps_exactly():
         for k in ("observation", "achieved_goal"):
             np.testing.assert_array_equal(got[k], want[k])
         assert ok == ok2
-    # restart_from (start states): the stored observation comes back, with a fresh or the stored goal
+    # restart_from (start states): the stored observation comes back,
+    # with a fresh or the stored goal
     c = E.make_env(ID, seed=5)
     got = E.restart_from(c, saved)
     E.set_state(a, saved)
@@ -190,14 +233,16 @@ def test_restored_state_replays_20_steps_exactly():
     np.testing.assert_array_equal(got["desired_goal"], a.goal)
 
 
-BEHIND = 0.065  # gripper centre behind the block centre while pushing (half a block + the fingers)
-LIFT = 0.07     # height above the blocks while moving round one
+# gripper centre behind the block centre while pushing (half a block + the fingers)
+BEHIND = 0.065
+LIFT = 0.07  # height above the blocks while moving round one
 
 
 def scripted_pusher(obs, goal, h):
-    """Push the first block that is more than 2 cm from its target straight at it: get behind the
-    block on the line target -> block (lifted over the blocks when the gripper must go round one),
-    lower to the block's height, push. Re-planned every step."""
+    """Push the first block that is more than 2 cm from its target straight at it: get
+    behind the block on the line target -> block (lifted over the blocks when the
+    gripper must go round one), lower to the block's height, push. Re-planned every
+    step."""
     grip = obs["observation"][:3]
     ag, g = obs["achieved_goal"].reshape(2, 3), goal.reshape(2, 3)
     todo = [i for i in range(2) if np.linalg.norm(ag[i, :2] - g[i, :2]) > 0.02]
@@ -210,16 +255,18 @@ def scripted_pusher(obs, goal, h):
     along = rel @ u
     perp = np.linalg.norm(rel - along * u)
     behind, low = b - BEHIND * u, h - 0.005
-    if along < -0.035 and perp < 0.012 and grip[2] < low + 0.02:      # in place: push
+    if along < -0.035 and perp < 0.012 and grip[2] < low + 0.02:  # in place: push
         off_line = behind - grip[:2]
-        a[:2] = (t - (BEHIND - 0.02) * u - grip[:2]) * 10 + off_line - (off_line @ u) * u
+        a[:2] = (
+            (t - (BEHIND - 0.02) * u - grip[:2]) * 10 + off_line - (off_line @ u) * u
+        )
         a[2] = (low - grip[2]) * 10
-    elif np.linalg.norm(grip[:2] - behind) < 0.01:                     # above the spot: lower
+    elif np.linalg.norm(grip[:2] - behind) < 0.01:  # above the spot: lower
         a[:2], a[2] = (behind - grip[:2]) * 10, (low - grip[2]) * 10
-    elif grip[2] < h + LIFT - 0.02:                                    # lift (first clear of the blocks)
+    elif grip[2] < h + LIFT - 0.02:  # lift (first clear of the blocks)
         near = np.linalg.norm(ag[:, :2] - grip[:2], axis=1).min() < 0.07
         a[:2], a[2] = (0.0 if near else (behind - grip[:2]) * 10), 1.0
-    else:                                                              # fly to the spot
+    else:  # fly to the spot
         a[:2], a[2] = (behind - grip[:2]) * 10, (h + LIFT - grip[2]) * 10
     return np.clip(a, -1, 1)
 
@@ -233,7 +280,7 @@ def test_a_scripted_pusher_solves_seeded_episodes_within_100_steps():
         assert not env._is_success(obs["achieved_goal"], env.goal)
         for _ in range(T):
             obs, ok = E.step(env, scripted_pusher(obs, env.goal, env.height_offset))
-        wins.append(ok)                           # success at the last step, as training counts it
+        wins.append(ok)  # success at the last step, as training counts it
         env.close()
     # measured: 5 of these 6 (and 16 of seeds 0-19)
     assert sum(wins) >= 1, wins
@@ -241,7 +288,9 @@ def test_a_scripted_pusher_solves_seeded_episodes_within_100_steps():
 
 def test_config_knows_the_task():
     assert ID in ENV_IDS and ID in OBJECT_ENVS
-    assert TASK_PRESETS[ID] == dict(eta=0.8, alpha0=0.7, epochs=400, cycles=50, success_threshold=0.95)
+    assert TASK_PRESETS[ID] == dict(
+        eta=0.8, alpha0=0.7, epochs=400, cycles=50, success_threshold=0.95
+    )
     cfg = Config(env=ID, method="her-ebp").resolve()
     assert (cfg.eta, cfg.alpha0, cfg.epochs, cfg.cycles) == (0.8, 0.7, 400, 50)
 
@@ -251,48 +300,83 @@ def test_bad_id_is_a_one_line_config_error(bad):
     with pytest.raises(ConfigError) as e:
         E.make_env(bad)
     msg = str(e.value)
-    assert "\n" not in msg and f"env={bad!r}" in msg and ID in msg and "FetchPush-v4" in msg
+    assert (
+        "\n" not in msg
+        and f"env={bad!r}" in msg
+        and ID in msg
+        and "FetchPush-v4" in msg
+    )
     with pytest.raises(ConfigError, match=f"env={bad!r}.*{ID}"):
         Config(env=bad).resolve()
 
 
 def test_bad_id_on_the_command_line(cli, tmp_path):
-    p = cli("train", "--env", "FetchPushMultiStep-v1", "--out", str(tmp_path / "run"), timeout=120)
+    p = cli(
+        "train",
+        "--env",
+        "FetchPushMultiStep-v1",
+        "--out",
+        str(tmp_path / "run"),
+        timeout=120,
+    )
     assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr
     lines = [l for l in p.stderr.splitlines() if l.strip()]
-    assert len(lines) == 1 and "FetchPushMultiStep-v1" in lines[0] and ID in lines[0], p.stderr
+    assert len(lines) == 1 and "FetchPushMultiStep-v1" in lines[0] and ID in lines[0], (
+        p.stderr
+    )
     assert not (tmp_path / "run").exists()
 
 
-# ----- what the methods make of two objects (rewards.goal_factor_target, priority.trajectory_energy)
+# ----- what the methods make of two objects (rewards.goal_factor_target,
+# priority.trajectory_energy)
+
 
 def test_goal_factor_targets_the_block_farthest_from_its_own():
     from acder_lite.rewards import goal_factor_target
+
     g3 = np.array([[0.1, 0.2, 0.3]])
-    assert goal_factor_target(g3, np.zeros((1, 3))) is g3  # one object: the goal itself, untouched
+    assert (
+        goal_factor_target(g3, np.zeros((1, 3))) is g3
+    )  # one object: the goal itself, untouched
     goal = np.array([[1.0, 0, 0, 0, 2.0, 0], [1.0, 0, 0, 0, 2.0, 0]])
-    achieved = np.array([[1.0, 0, 0, 0, 0, 0],      # block 0 on target, block 1 2 m away
-                         [0.0, 0, 0, 0, 1.9, 0]])   # block 0 1 m away, block 1 0.1 m
-    np.testing.assert_array_equal(goal_factor_target(goal, achieved), [[0, 2.0, 0], [1.0, 0, 0]])
+    achieved = np.array(
+        [
+            [1.0, 0, 0, 0, 0, 0],  # block 0 on target, block 1 2 m away
+            [0.0, 0, 0, 0, 1.9, 0],
+        ]
+    )  # block 0 1 m away, block 1 0.1 m
+    np.testing.assert_array_equal(
+        goal_factor_target(goal, achieved), [[0, 2.0, 0], [1.0, 0, 0]]
+    )
 
 
 def test_energy_counts_both_blocks():
     from acder_lite.priority import trajectory_energy
+
     T = 10
     still = np.zeros((1, T + 1, 3))
     moving = np.zeros((1, T + 1, 3))
     moving[0, :, 0] = np.linspace(0, 0.05, T + 1)
     one = trajectory_energy(moving, 0.04)
     assert one[0] > 0
-    np.testing.assert_allclose(trajectory_energy(np.concatenate([still, moving], 2), 0.04), one)
-    np.testing.assert_allclose(trajectory_energy(np.concatenate([moving, moving], 2), 0.04),
-                               trajectory_energy(moving * np.sqrt(2), 0.04))  # kinetic adds up
+    np.testing.assert_allclose(
+        trajectory_energy(np.concatenate([still, moving], 2), 0.04), one
+    )
+    np.testing.assert_allclose(
+        trajectory_energy(np.concatenate([moving, moving], 2), 0.04),
+        trajectory_energy(moving * np.sqrt(2), 0.04),
+    )  # kinetic adds up
 
 
 @pytest.mark.parametrize("method", ["acder", "her-ebp"])
 def test_every_method_runs_on_the_multistep_push(method):
     from acder_lite.trainer import Trainer
     from conftest import tiny_config
-    tr = Trainer(tiny_config(env="FetchPushMultiStep-v0", method=method, workers=2, epochs=1, cycles=2))
+
+    tr = Trainer(
+        tiny_config(
+            env="FetchPushMultiStep-v0", method=method, workers=2, epochs=1, cycles=2
+        )
+    )
     rows = tr.train(progress=False)
     assert len(rows) == 1 and tr.buffer.o.shape[1:] == (101, 40)

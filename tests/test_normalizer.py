@@ -13,14 +13,16 @@ def test_matches_numpy_mean_std():
     np.testing.assert_allclose(n.mean, x.mean(0), rtol=1e-10)
     np.testing.assert_allclose(n.std, x.std(0), rtol=1e-8)
     v = rng.normal(size=(5, 4))
-    np.testing.assert_allclose(n.normalize(v), np.clip((v - x.mean(0)) / x.std(0), -5, 5), rtol=1e-8)
+    np.testing.assert_allclose(
+        n.normalize(v), np.clip((v - x.mean(0)) / x.std(0), -5, 5), rtol=1e-8
+    )
     t = n.normalize(torch.tensor(v, dtype=torch.float32))
     np.testing.assert_allclose(t.numpy(), n.normalize(v), rtol=1e-5, atol=1e-6)
 
 
 def test_eps_floor_and_clip():
     n = Normalizer(2, eps=0.01, clip=5.0)
-    n.update(np.ones((10, 2)))          # zero variance: std is the floor eps
+    n.update(np.ones((10, 2)))  # zero variance: std is the floor eps
     np.testing.assert_allclose(n.std, [0.01, 0.01])
     assert np.all(n.normalize(np.array([[2.0, 0.0]])) == [[5.0, -5.0]])
 

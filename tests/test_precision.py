@@ -1,4 +1,6 @@
-"""--update-dtype auto: bfloat16 only with native bfloat16 matmul; the choice and why recorded."""
+"""--update-dtype auto: bfloat16 only with native bfloat16 matmul;
+the choice and why recorded."""
+
 import json
 
 import pytest
@@ -12,13 +14,17 @@ def test_auto_follows_the_cpu(monkeypatch, native, want):
     monkeypatch.setattr(precision, "native_bf16", lambda: (native, "probe"))
     cfg = Config(env="FetchPush-v4").resolve()
     assert cfg.update_dtype == want and cfg.update_dtype_why == "auto: probe"
-    assert Config(env="FetchPush-v4", update_dtype="float32").resolve().update_dtype == "float32"
+    assert (
+        Config(env="FetchPush-v4", update_dtype="float32").resolve().update_dtype
+        == "float32"
+    )
 
 
 def test_an_explicit_choice_is_kept_and_recorded():
     cfg = Config(env="FetchPush-v4", update_dtype="bfloat16").resolve()
     assert (cfg.update_dtype, cfg.update_dtype_why) == ("bfloat16", "asked for")
-    again = Config.from_dict(cfg.to_dict()).resolve()  # a resumed run keeps the resolved choice
+    # a resumed run keeps the resolved choice
+    again = Config.from_dict(cfg.to_dict()).resolve()
     assert (again.update_dtype, again.update_dtype_why) == ("bfloat16", "asked for")
 
 
@@ -40,13 +46,49 @@ def test_bf16_cost_is_a_measured_ratio():
 def test_train_records_the_choice_and_warns(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(precision, "native_bf16", lambda: (False, "no AVX512-BF16"))
     monkeypatch.setattr(precision, "bf16_cost", lambda: 17.0)
-    tiny = ["--env", "FetchReach-v4", "--method", "her", "--seed", "0", "--epochs", "1", "--cycles", "1",
-            "--workers", "1", "--updates-per-cycle", "1", "--test-episodes", "1", "--batch-size", "8",
-            "--hidden", "8", "--buffer-size", "1000", "--threads", "1", "--quiet"]
+    tiny = [
+        "--env",
+        "FetchReach-v4",
+        "--method",
+        "her",
+        "--seed",
+        "0",
+        "--epochs",
+        "1",
+        "--cycles",
+        "1",
+        "--workers",
+        "1",
+        "--updates-per-cycle",
+        "1",
+        "--test-episodes",
+        "1",
+        "--batch-size",
+        "8",
+        "--hidden",
+        "8",
+        "--buffer-size",
+        "1000",
+        "--threads",
+        "1",
+        "--quiet",
+    ]
     assert cli.main(["train", *tiny, "--out", str(tmp_path / "a")]) == 0
     cfg = json.loads((tmp_path / "a" / "config.json").read_text())["config"]
-    assert (cfg["update_dtype"], cfg["update_dtype_why"]) == ("float32", "auto: no AVX512-BF16")
+    assert (cfg["update_dtype"], cfg["update_dtype_why"]) == (
+        "float32",
+        "auto: no AVX512-BF16",
+    )
     assert "warning" not in capsys.readouterr().err
-    assert cli.main(["train", *tiny, "--update-dtype", "bfloat16", "--out", str(tmp_path / "b")]) == 0
-    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning")]
+    assert (
+        cli.main(
+            ["train", *tiny, "--update-dtype", "bfloat16", "--out", str(tmp_path / "b")]
+        )
+        == 0
+    )
+    err = [
+        line
+        for line in capsys.readouterr().err.splitlines()
+        if line.startswith("warning")
+    ]
     assert len(err) == 1 and "17.0x slower" in err[0]

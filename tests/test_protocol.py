@@ -1,5 +1,6 @@
-"""Protocol v2 (DESIGN.md): the task presets, Xavier init, Baselines' clip, the stop rule, and
-protocol-v1 configs read back as the runs they were."""
+"""Protocol v2 (DESIGN.md): the task presets, Xavier init, Baselines' clip, the stop
+rule, and protocol-v1 configs read back as the runs they were."""
+
 import csv
 import glob
 import json
@@ -19,37 +20,72 @@ V1 = os.path.join(ROOT, "experiments", "protocol-v1")
 
 
 # ---- the task presets
-@pytest.mark.parametrize("env, epochs, cycles, threshold", [
-    ("FetchReach-v4", 25, 10, 1.0),           # Baselines' experiment/config.py: Reach epochs of 10 cycles
-    ("FetchPush-v4", 50, 50, 0.95),
-    ("FetchPickAndPlace-v4", 100, 50, 0.95),
-])
+@pytest.mark.parametrize(
+    "env, epochs, cycles, threshold",
+    [
+        (
+            "FetchReach-v4",
+            25,
+            10,
+            1.0,
+        ),  # Baselines' experiment/config.py: Reach epochs of 10 cycles
+        ("FetchPush-v4", 50, 50, 0.95),
+        ("FetchPickAndPlace-v4", 100, 50, 0.95),
+    ],
+)
 def test_protocol_v2_defaults_per_task(env, epochs, cycles, threshold):
     cfg = Config(env=env, method="acder").resolve()
-    assert (cfg.epochs, cfg.cycles, cfg.success_threshold) == (epochs, cycles, threshold)
-    assert (cfg.workers, cfg.episodes_per_cycle, cfg.updates_per_cycle, cfg.batch_size) == (4, 2, 40, 256)
-    assert cfg.test_episodes == 20            # n_test_rollouts=10 x rollout_batch_size=2, per worker
-    assert cfg.eval_every_cycles == 0         # one evaluation per epoch
-    assert cfg.buffer_scope == "worker" and cfg.buffer_capacity == 4_000_000   # 10^6 per worker
-    assert (cfg.init, cfg.target_clip, cfg.stop_patience, cfg.stop_gap_episodes) == ("xavier", "baselines", 5, 0)
+    assert (cfg.epochs, cfg.cycles, cfg.success_threshold) == (
+        epochs,
+        cycles,
+        threshold,
+    )
+    assert (
+        cfg.workers,
+        cfg.episodes_per_cycle,
+        cfg.updates_per_cycle,
+        cfg.batch_size,
+    ) == (4, 2, 40, 256)
+    assert (
+        cfg.test_episodes == 20
+    )  # n_test_rollouts=10 x rollout_batch_size=2, per worker
+    assert cfg.eval_every_cycles == 0  # one evaluation per epoch
+    assert (
+        cfg.buffer_scope == "worker" and cfg.buffer_capacity == 4_000_000
+    )  # 10^6 per worker
+    assert (cfg.init, cfg.target_clip, cfg.stop_patience, cfg.stop_gap_episodes) == (
+        "xavier",
+        "baselines",
+        5,
+        0,
+    )
     # an epoch is W x 2 x cycles episodes: 400 on Push and Pick&Place, 80 on Reach
-    assert cfg.workers * cfg.episodes_per_cycle * cfg.cycles == (80 if env == "FetchReach-v4" else 400)
+    assert cfg.workers * cfg.episodes_per_cycle * cfg.cycles == (
+        80 if env == "FetchReach-v4" else 400
+    )
 
 
 def test_explicit_values_beat_the_presets():
-    cfg = Config(env="FetchReach-v4", epochs=3, cycles=50, success_threshold=0.9).resolve()
+    cfg = Config(
+        env="FetchReach-v4", epochs=3, cycles=50, success_threshold=0.9
+    ).resolve()
     assert (cfg.epochs, cfg.cycles, cfg.success_threshold) == (3, 50, 0.9)
     assert Config(buffer_scope="shared").resolve().buffer_capacity == 1_000_000
     assert Config(workers=2, buffer_size=5000).resolve().buffer_capacity == 10_000
 
 
-@pytest.mark.parametrize("scope, episodes", [("worker", 2 * 5000 // 50), ("shared", 5000 // 50)])
+@pytest.mark.parametrize(
+    "scope, episodes", [("worker", 2 * 5000 // 50), ("shared", 5000 // 50)]
+)
 def test_the_trainer_allocates_the_buffer_capacity(scope, episodes):
-    tr = Trainer(tiny_config(workers=2, buffer_size=5000, buffer_scope=scope))   # Reach: T = 50
+    tr = Trainer(
+        tiny_config(workers=2, buffer_size=5000, buffer_scope=scope)
+    )  # Reach: T = 50
     assert tr.buffer.size == episodes
 
 
-# ---- Xavier init (Baselines' her/util.py nn(): tf.layers.dense with xavier_initializer, zero bias)
+# ---- Xavier init (Baselines' her/util.py nn():
+# tf.layers.dense with xavier_initializer, zero bias)
 def _linears(module):
     return [m for m in module.modules() if isinstance(m, torch.nn.Linear)]
 
@@ -63,8 +99,10 @@ def test_mlp_xavier_uniform_weights_and_zero_biases():
     for layer in _linears(mlp([31, 256, 256, 256, 4])):
         w, bound = layer.weight.detach(), _xavier_bound(layer)
         assert float(w.abs().max()) <= bound
-        assert float(w.abs().max()) > 0.95 * bound                  # uniform on the whole range ...
-        assert float(w.std()) == pytest.approx(bound / math.sqrt(3), rel=0.1)   # ... of variance b^2/3
+        assert float(w.abs().max()) > 0.95 * bound  # uniform on the whole range ...
+        assert float(w.std()) == pytest.approx(
+            bound / math.sqrt(3), rel=0.1
+        )  # ... of variance b^2/3
         assert bool((layer.bias == 0).all())
 
 
@@ -72,23 +110,35 @@ def test_torch_init_differs():
     torch.manual_seed(0)
     layers = _linears(mlp([31, 256, 256, 256, 4], init="torch"))
     assert all(bool((layer.bias != 0).any()) for layer in layers)
-    first = layers[0]  # Kaiming-uniform's bound 1/sqrt(31) = 0.18 exceeds Xavier's sqrt(6/287) = 0.145
+    # Kaiming-uniform's bound 1/sqrt(31) = 0.18 exceeds Xavier's sqrt(6/287) = 0.145
+    first = layers[0]
     assert float(first.weight.detach().abs().max()) > _xavier_bound(first)
 
 
 @pytest.mark.parametrize("init", ["xavier", "torch"])
 def test_every_network_of_a_run_gets_its_init(init):
     tr = Trainer(tiny_config(method="acder", env="FetchPush-v4", init=init))
-    nets = [tr.agent.actor, tr.agent.critic, tr.agent.actor_targ, tr.agent.critic_targ, tr.curiosity]
+    nets = [
+        tr.agent.actor,
+        tr.agent.critic,
+        tr.agent.actor_targ,
+        tr.agent.critic_targ,
+        tr.curiosity,
+    ]
     layers = [layer for net in nets for layer in _linears(net)]
     zero_bias = [bool((layer.bias == 0).all()) for layer in layers]
-    in_bound = [float(layer.weight.detach().abs().max()) <= _xavier_bound(layer) for layer in layers]
+    in_bound = [
+        float(layer.weight.detach().abs().max()) <= _xavier_bound(layer)
+        for layer in layers
+    ]
     if init == "xavier":
         assert all(zero_bias) and all(in_bound)
     else:
         assert not any(zero_bias)
     icm = Trainer(tiny_config(method="her-icm", init=init)).curiosity
-    assert all(bool((layer.bias == 0).all()) == (init == "xavier") for layer in _linears(icm))
+    assert all(
+        bool((layer.bias == 0).all()) == (init == "xavier") for layer in _linears(icm)
+    )
 
 
 # ---- the critic's target clip (Baselines' ddpg.py clip_pos_returns: [-1/(1-gamma), 0])
@@ -96,25 +146,35 @@ def test_baselines_clip_by_default_for_every_method_and_wide_on_request():
     assert Config().target_clip == "baselines"
     for method in METHODS:
         cfg = Config(env="FetchPush-v4", method=method).resolve()
-        assert target_clip(cfg.target_clip, cfg.switches, cfg.eta, cfg.gamma) == pytest.approx((-50.0, 0.0))
+        assert target_clip(
+            cfg.target_clip, cfg.switches, cfg.eta, cfg.gamma
+        ) == pytest.approx((-50.0, 0.0))
     tr = Trainer(tiny_config(method="acder", env="FetchReach-v4"))
     assert tr.clip_return == pytest.approx((-50.0, 0.0))
     wide = Trainer(tiny_config(method="acder", env="FetchReach-v4", target_clip="wide"))
-    assert wide.clip_return == pytest.approx((-1.5 * 50, 0.05 * 50))    # Reach's eta = 0.05
+    assert wide.clip_return == pytest.approx(
+        (-1.5 * 50, 0.05 * 50)
+    )  # Reach's eta = 0.05
 
 
 def test_the_protocol_v1_method_name_is_acder_with_baselines_clip():
-    cfg = Config.from_dict(dict(method="acder-baselines-clip", env="FetchPush-v4")).resolve()
+    cfg = Config.from_dict(
+        dict(method="acder-baselines-clip", env="FetchPush-v4")
+    ).resolve()
     assert (cfg.method, cfg.target_clip) == ("acder", "baselines")
     assert "acder-baselines-clip" not in METHODS
 
 
 # ---- the stop rule: 5 consecutive epoch evaluations at the threshold, else the budget
 def _scripted_run(tmp_path, script, **kw):
-    cfg = tiny_config(epochs=len(script), cycles=1, **kw)   # Reach: threshold 1.0 by its preset
+    cfg = tiny_config(
+        epochs=len(script), cycles=1, **kw
+    )  # Reach: threshold 1.0 by its preset
     tr = Trainer(cfg, str(tmp_path / "run"))
     scripted = iter(script)
-    tr.evaluate = lambda: next(scripted)  # the test success by script; training itself runs as usual
+    tr.evaluate = lambda: next(
+        scripted
+    )  # the test success by script; training itself runs as usual
     tr.train(False)
     done = json.loads((tmp_path / "run" / "done.json").read_text())
     with open(tmp_path / "run" / "progress.csv") as f:
@@ -123,18 +183,33 @@ def _scripted_run(tmp_path, script, **kw):
 
 
 def test_success_held_for_five_epoch_evaluations_stops_the_run(tmp_path):
-    tr, done, rows = _scripted_run(tmp_path, [0.9, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5, 0.5, 0.5])
+    tr, done, rows = _scripted_run(
+        tmp_path, [0.9, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5, 0.5, 0.5]
+    )
     assert done["stop_reason"] == "success held" and done["stopped_early"]
-    assert done["epochs"] == 6 and done["episodes"] == 6 * 2      # 1 cycle of 2 episodes an epoch
+    assert (
+        done["epochs"] == 6 and done["episodes"] == 6 * 2
+    )  # 1 cycle of 2 episodes an epoch
     assert [float(r["test_success"]) for r in rows] == [0.9, 1.0, 1.0, 1.0, 1.0, 1.0]
-    assert done["stop_rule"] == dict(success_threshold=1.0, patience=5, budget_epochs=9, gap_episodes=0)
+    assert done["stop_rule"] == dict(
+        success_threshold=1.0, patience=5, budget_epochs=9, gap_episodes=0
+    )
 
 
-@pytest.mark.parametrize("script, kw", [
-    ([1.0, 1.0, 1.0, 1.0, 0.95, 1.0, 1.0, 1.0], {}),               # never 5 in a row at 1.0 (Reach)
-    ([0.96, 0.97, 0.99, 0.94, 0.95, 0.95, 0.99], dict(env="FetchPush-v4")),   # 0.94 breaks Push's 0.95
-    ([1.0] * 6, dict(stop_patience=0)),                             # 0: always the whole budget
-])
+@pytest.mark.parametrize(
+    "script, kw",
+    [
+        (
+            [1.0, 1.0, 1.0, 1.0, 0.95, 1.0, 1.0, 1.0],
+            {},
+        ),  # never 5 in a row at 1.0 (Reach)
+        (
+            [0.96, 0.97, 0.99, 0.94, 0.95, 0.95, 0.99],
+            dict(env="FetchPush-v4"),
+        ),  # 0.94 breaks Push's 0.95
+        ([1.0] * 6, dict(stop_patience=0)),  # 0: always the whole budget
+    ],
+)
 def test_a_run_that_does_not_hold_the_threshold_runs_its_budget(tmp_path, script, kw):
     tr, done, rows = _scripted_run(tmp_path, script, **kw)
     assert done["stop_reason"] == "budget" and not done["stopped_early"]
@@ -142,7 +217,9 @@ def test_a_run_that_does_not_hold_the_threshold_runs_its_budget(tmp_path, script
 
 
 def test_the_threshold_is_held_on_push_at_095(tmp_path):
-    _, done, _ = _scripted_run(tmp_path, [0.5, 0.95, 0.96, 1.0, 0.95, 0.97, 0.2], env="FetchPush-v4")
+    _, done, _ = _scripted_run(
+        tmp_path, [0.5, 0.95, 0.96, 1.0, 0.95, 0.97, 0.2], env="FetchPush-v4"
+    )
     assert (done["stop_reason"], done["epochs"]) == ("success held", 6)
     assert done["stop_rule"]["success_threshold"] == 0.95
 
@@ -155,27 +232,54 @@ def _v1(env, method, seed=0):
 
 def test_upgrade_legacy_acder_baselines_clip():
     d = _v1("FetchPush-v4", "acder-baselines-clip")
-    assert d["method"] == "acder-baselines-clip" and d["stop_after_success"] == 0.95   # as committed
+    assert (
+        d["method"] == "acder-baselines-clip" and d["stop_after_success"] == 0.95
+    )  # as committed
     u = upgrade_legacy(d)
-    assert "stop_after_success" in d and d["method"] == "acder-baselines-clip"       # a copy
+    assert "stop_after_success" in d and d["method"] == "acder-baselines-clip"  # a copy
     assert (u["method"], u["target_clip"]) == ("acder", "baselines")
-    assert (u["init"], u["buffer_scope"], u["sicm_input"]) == ("torch", "shared", "normalised")
+    assert (u["init"], u["buffer_scope"], u["sicm_input"]) == (
+        "torch",
+        "shared",
+        "normalised",
+    )
     assert (u["success_threshold"], u["stop_patience"]) == (0.95, 10)
     assert "stop_after_success" not in u and "target_clip" not in u["switches"]
     cfg = Config.from_dict(d).resolve()
-    assert (cfg.epochs, cfg.cycles, cfg.test_episodes, cfg.eval_every_cycles) == (50, 50, 10, 5)
+    assert (cfg.epochs, cfg.cycles, cfg.test_episodes, cfg.eval_every_cycles) == (
+        50,
+        50,
+        10,
+        5,
+    )
     assert cfg.buffer_capacity == 1_000_000
-    assert target_clip(cfg.target_clip, cfg.switches, cfg.eta, cfg.gamma) == pytest.approx((-50.0, 0.0))
+    assert target_clip(
+        cfg.target_clip, cfg.switches, cfg.eta, cfg.gamma
+    ) == pytest.approx((-50.0, 0.0))
 
 
 def test_upgrade_legacy_acder_had_the_wide_clip():
     d = _v1("FetchPush-v4", "acder")
-    assert "target_clip" not in d and "target_clip" not in d["switches"]   # written before the switch
+    assert (
+        "target_clip" not in d and "target_clip" not in d["switches"]
+    )  # written before the switch
     cfg = Config.from_dict(d).resolve()
-    assert (cfg.method, cfg.target_clip, cfg.init, cfg.buffer_scope) == ("acder", "wide", "torch", "shared")
-    assert target_clip(cfg.target_clip, cfg.switches, cfg.eta, cfg.gamma) == pytest.approx((-75.0, 40.0))
+    assert (cfg.method, cfg.target_clip, cfg.init, cfg.buffer_scope) == (
+        "acder",
+        "wide",
+        "torch",
+        "shared",
+    )
+    assert target_clip(
+        cfg.target_clip, cfg.switches, cfg.eta, cfg.gamma
+    ) == pytest.approx((-75.0, 40.0))
     reach = Config.from_dict(_v1("FetchReach-v4", "acder")).resolve()
-    assert (reach.epochs, reach.cycles, reach.success_threshold, reach.stop_patience) == (25, 50, 1.0, 5)
+    assert (
+        reach.epochs,
+        reach.cycles,
+        reach.success_threshold,
+        reach.stop_patience,
+    ) == (25, 50, 1.0, 5)
 
 
 def test_every_committed_protocol_v1_config_reads_back():
@@ -187,9 +291,19 @@ def test_every_committed_protocol_v1_config_reads_back():
             d = json.load(f)["config"]
         cfg = Config.from_dict(d).resolve()
         want_clip = "baselines" if method_dir == "acder-baselines-clip" else "wide"
-        assert (cfg.target_clip, cfg.init, cfg.buffer_scope, cfg.sicm_input) == \
-            (want_clip, "torch", "shared", "normalised"), path
-        assert cfg.method in METHODS and cfg.test_episodes == 10 and cfg.cycles == 50, path
-        assert cfg.success_threshold == d["stop_after_success"] and cfg.stop_patience == d["stop_patience"], path
-        # written before update_dtype existed: float32, whatever 'auto' would pick on this CPU
+        assert (cfg.target_clip, cfg.init, cfg.buffer_scope, cfg.sicm_input) == (
+            want_clip,
+            "torch",
+            "shared",
+            "normalised",
+        ), path
+        assert cfg.method in METHODS and cfg.test_episodes == 10 and cfg.cycles == 50, (
+            path
+        )
+        assert (
+            cfg.success_threshold == d["stop_after_success"]
+            and cfg.stop_patience == d["stop_patience"]
+        ), path
+        # written before update_dtype existed: float32, whatever 'auto' would pick on
+        # this CPU
         assert cfg.update_dtype == d.get("update_dtype", "float32"), path

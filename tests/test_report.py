@@ -1,4 +1,6 @@
-"""Table I's statistic (acder_lite.report) on synthetic curves with hand-computed answers."""
+"""Table I's statistic (acder_lite.report) on synthetic curves with
+hand-computed answers."""
+
 import math
 
 import numpy as np
@@ -9,18 +11,33 @@ from acder_lite import report as R
 
 def rows(values, first_epoch=1, per_epoch=400):
     """progress.csv rows of one evaluation per epoch."""
-    return [dict(epoch=float(first_epoch + i), episodes=float((first_epoch + i) * per_epoch), test_success=float(v))
-            for i, v in enumerate(values)]
+    return [
+        dict(
+            epoch=float(first_epoch + i),
+            episodes=float((first_epoch + i) * per_epoch),
+            test_success=float(v),
+        )
+        for i, v in enumerate(values)
+    ]
 
 
 def run(seed, values, ended, budget=10, per_epoch=400, name="her", env="FetchPush-v4"):
     """A run dict as runs.read_run makes it (only the keys report uses)."""
-    return dict(env=env, name=name, method=name, seed=seed, rows=rows(values, per_epoch=per_epoch),
-                ended=ended, budget_epochs=float(budget), episodes_per_epoch=float(per_epoch),
-                update_dtype="float32")
+    return dict(
+        env=env,
+        name=name,
+        method=name,
+        seed=seed,
+        rows=rows(values, per_epoch=per_epoch),
+        ended=ended,
+        budget_epochs=float(budget),
+        episodes_per_epoch=float(per_epoch),
+        update_dtype="float32",
+    )
 
 
-# Seed A held 95% at 5 evaluations (epochs 2-6) and stopped; it carries (4 x 0.95 + 1.0) / 5 = 0.96.
+# Seed A held 95% at 5 evaluations (epochs 2-6) and stopped; it carries
+# (4 x 0.95 + 1.0) / 5 = 0.96.
 A = [0.5, 0.95, 0.95, 0.95, 0.95, 1.0]
 # Seed B ran its 10-epoch budget.
 B = [0.0, 0.1, 0.3, 0.5, 0.7, 0.8, 0.9, 0.98, 1.0, 1.0]
@@ -29,11 +46,13 @@ B = [0.0, 0.1, 0.3, 0.5, 0.7, 0.8, 0.9, 0.98, 1.0, 1.0]
 def test_first_crossing_interpolates():
     assert R.first_crossing([1, 2, 3], [0.5, 0.9, 1.0], 0.95) == pytest.approx(2.5)
     assert R.first_crossing([1, 2, 3], [0.5, 0.9, 1.0], 0.9) == pytest.approx(2.0)
-    # at the first evaluation: no interpolation from before it (there is no epoch-0 evaluation)
+    # at the first evaluation: no interpolation from before it
+    # (there is no epoch-0 evaluation)
     assert R.first_crossing([1, 2], [0.97, 0.5], 0.95) == 1.0
     # a mean of ones that prints as 0.9999999999 reaches 1.0
     assert R.first_crossing([1, 2], [0.5, 0.9999999999], 1.0) == pytest.approx(2.0)
-    # after a gap (NaN) the crossing is read at the point, not interpolated across the gap
+    # after a gap (NaN) the crossing is read at the point,
+    # not interpolated across the gap
     assert R.first_crossing([1, 2, 3], [0.5, np.nan, 1.0], 0.95) == 3.0
     assert R.first_crossing([1, 2, 3], [0.5, 0.6, 0.94], 0.95) is None
     assert R.first_crossing([], [], 0.5) is None
@@ -44,7 +63,8 @@ def test_carry_forward():
     np.testing.assert_allclose(x, np.arange(1.0, 11.0))
     np.testing.assert_allclose(y[6:], [0.96] * 4)
     assert carried.tolist() == [False] * 6 + [True] * 4
-    # protocol v1's spacing of 0.1 epoch: the carried points stay on that lattice, then the budget
+    # protocol v1's spacing of 0.1 epoch: the carried points stay on that lattice,
+    # then the budget
     x, _, carried = R.carry_forward([0.1, 0.2, 0.3], [1.0, 1.0, 1.0], budget=0.65)
     np.testing.assert_allclose(x, [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.65])
     # a curve that reached its budget is left alone
@@ -54,34 +74,55 @@ def test_carry_forward():
 
 def test_mean_curve_crossing_with_carry_forward():
     # mean at epoch 7: (0.96 + 0.9) / 2 = 0.93, at 8: (0.96 + 0.98) / 2 = 0.97
-    # -> crossing at 7 + (0.95 - 0.93) / (0.97 - 0.93) = 7.5 epochs = 3,000 episodes in Table I's unit
-    c = R.cell_stat("FetchPush-v4", "her", [run(0, A, "stop rule"), run(1, B, "budget")], n_boot=200)
+    # -> crossing at 7 + (0.95 - 0.93) / (0.97 - 0.93) = 7.5 epochs = 3,000 episodes
+    # in Table I's unit
+    c = R.cell_stat(
+        "FetchPush-v4", "her", [run(0, A, "stop rule"), run(1, B, "budget")], n_boot=200
+    )
     assert c.crossing == pytest.approx(7.5)
     assert c.paper_units(c.crossing) == pytest.approx(3000)
     assert (c.n, c.done, c.stopped, c.why, c.paper) == (2, 2, 1, "", 11600)
-    # each seed's own crossing: A at epoch 2, B between 0.9 (7) and 0.98 (8): 7 + 0.05 / 0.08
+    # each seed's own crossing: A at epoch 2, B between 0.9 (7) and 0.98 (8):
+    # 7 + 0.05 / 0.08
     assert c.seed_crossings == pytest.approx([2.0, 7.625])
-    assert (c.seed_median, c.seed_low, c.seed_high, c.k) == pytest.approx((4.8125, 2.0, 7.625, 2))
-    m = R.mean_curve([R.seed_curve(run(0, A, "stop rule")["rows"], "stop rule", 10),
-                      R.seed_curve(run(1, B, "budget")["rows"], "budget", 10)])
-    assert m.carried.tolist() == [False] * 6 + [True] * 4  # Fig. 4 draws epochs 6-10 dotted
+    assert (c.seed_median, c.seed_low, c.seed_high, c.k) == pytest.approx(
+        (4.8125, 2.0, 7.625, 2)
+    )
+    m = R.mean_curve(
+        [
+            R.seed_curve(run(0, A, "stop rule")["rows"], "stop rule", 10),
+            R.seed_curve(run(1, B, "budget")["rows"], "budget", 10),
+        ]
+    )
+    assert (
+        m.carried.tolist() == [False] * 6 + [True] * 4
+    )  # Fig. 4 draws epochs 6-10 dotted
     np.testing.assert_allclose(m.mean[6:8], [0.93, 0.97])
 
 
 def test_without_carry_forward_the_mean_curve_ends_with_the_seed():
-    # the same seed A, but ended for another reason (protocol v1's gap rule): it has no value
-    # after epoch 6, where the mean is still 0.875, so the mean curve does not cross
-    c = R.cell_stat("FetchPush-v4", "her", [run(0, A, "cut"), run(1, B, "budget")], n_boot=200)
+    # the same seed A, but ended for another reason (protocol v1's gap rule): it has no
+    # value after epoch 6, where the mean is still 0.875,
+    # so the mean curve does not cross
+    c = R.cell_stat(
+        "FetchPush-v4", "her", [run(0, A, "cut"), run(1, B, "budget")], n_boot=200
+    )
     assert c.crossing is None and c.why == "not before a seed's curve was cut"
     assert c.evaluated_epochs == 6.0
-    c = R.cell_stat("FetchPush-v4", "her", [run(0, A, None), run(1, B, "budget")], n_boot=200)
+    c = R.cell_stat(
+        "FetchPush-v4", "her", [run(0, A, None), run(1, B, "budget")], n_boot=200
+    )
     assert c.crossing is None and c.why == "not yet" and c.unfinished == 1
 
 
 def test_reach_reports_both_units():
     # FetchReach epochs of 10 cycles hold 80 episodes; Table I counts 400 an epoch
-    c = R.cell_stat("FetchReach-v4", "her", [run(0, [0.5, 1.0], "budget", budget=2, per_epoch=80, env="FetchReach-v4")],
-                    n_boot=50)
+    c = R.cell_stat(
+        "FetchReach-v4",
+        "her",
+        [run(0, [0.5, 1.0], "budget", budget=2, per_epoch=80, env="FetchReach-v4")],
+        n_boot=50,
+    )
     assert c.crossing == pytest.approx(2.0)
     assert (c.paper_units(c.crossing), c.our_episodes(c.crossing)) == (800, 160)
     assert c.threshold == 1.0
@@ -89,32 +130,62 @@ def test_reach_reports_both_units():
 
 def test_a_curve_that_never_crosses():
     never = [0.05 * i for i in range(10)]  # 0.0 .. 0.45 over the whole budget
-    c = R.cell_stat("FetchPush-v4", "acder", [run(0, never, "budget"), run(1, B, "budget")], n_boot=300)
+    c = R.cell_stat(
+        "FetchPush-v4",
+        "acder",
+        [run(0, never, "budget"), run(1, B, "budget")],
+        n_boot=300,
+    )
     assert c.crossing is None and c.why == "not within budget"
     assert c.seed_crossings[0] is None and math.isinf(c.seed_high) and c.k == 1
-    # resamples of seed 1 alone cross (1/4 of them), the others do not: the interval ends beyond the budget
+    # resamples of seed 1 alone cross (1/4 of them), the others do not:
+    # the interval ends beyond the budget
     assert 0.15 < c.share_crossing < 0.35 and math.isinf(c.high)
     d = c.to_dict()
     assert d["high"] is None and d["crossing_episodes_paper_units"] is None
-    empty = R.cell_stat("FetchPush-v4", "acder", [], planned=dict(seeds=5, hold="readings"))
-    assert (empty.why, empty.planned, empty.hold, empty.n) == ("not run yet", 5, "readings", 0)
+    empty = R.cell_stat(
+        "FetchPush-v4", "acder", [], planned=dict(seeds=5, hold="readings")
+    )
+    assert (empty.why, empty.planned, empty.hold, empty.n) == (
+        "not run yet",
+        5,
+        "readings",
+        0,
+    )
 
 
 def test_ratio_from_the_mean_curves():
-    her = R.cell_stat("FetchPush-v4", "her", [run(0, A, "stop rule"), run(1, B, "budget")], n_boot=300)  # 7.5
-    acder = R.cell_stat("FetchPush-v4", "acder", [run(0, [0.2, 0.6, 1.0], "budget", budget=3, name="acder")],
-                        n_boot=300)  # 2 + 0.35 / 0.4 = 2.875
+    her = R.cell_stat(
+        "FetchPush-v4", "her", [run(0, A, "stop rule"), run(1, B, "budget")], n_boot=300
+    )  # 7.5
+    acder = R.cell_stat(
+        "FetchPush-v4",
+        "acder",
+        [run(0, [0.2, 0.6, 1.0], "budget", budget=3, name="acder")],
+        n_boot=300,
+    )  # 2 + 0.35 / 0.4 = 2.875
     r = R.ratio_stat(her, acder)
-    assert r.ours == pytest.approx(7.5 / 2.875) and r.paper == pytest.approx(11600 / 2200)
+    assert r.ours == pytest.approx(7.5 / 2.875) and r.paper == pytest.approx(
+        11600 / 2200
+    )
     assert r.low <= r.ours <= r.high and r.share == 1.0
-    never = R.cell_stat("FetchPush-v4", "her", [run(0, [0.1] * 10, "budget")], n_boot=100)
+    never = R.cell_stat(
+        "FetchPush-v4", "her", [run(0, [0.1] * 10, "budget")], n_boot=100
+    )
     r = R.ratio_stat(never, acder)
-    assert r.ours is None and r.bound == pytest.approx(10 / 2.875) and r.why == "HER not within budget"
+    assert (
+        r.ours is None
+        and r.bound == pytest.approx(10 / 2.875)
+        and r.why == "HER not within budget"
+    )
     assert R.ratio_stat(None, acder).why == "not run yet"
 
 
 def test_bootstrap_is_deterministic_and_per_cell():
-    curves = [R.seed_curve(rows(v), "budget", 10) for v in (B, [min(1, 0.15 * i) for i in range(10)])]
+    curves = [
+        R.seed_curve(rows(v), "budget", 10)
+        for v in (B, [min(1, 0.15 * i) for i in range(10)])
+    ]
     a = R.bootstrap_crossings(curves, 0.95, 500, seed=R.cell_seed("FetchPush-v4/her"))
     b = R.bootstrap_crossings(curves, 0.95, 500, seed=R.cell_seed("FetchPush-v4/her"))
     c = R.bootstrap_crossings(curves, 0.95, 500, seed=R.cell_seed("FetchPush-v4/acder"))
@@ -133,16 +204,21 @@ def test_interval_ranks_never_last():
 
 def test_seed_summary():
     s = R.seed_summary([3.0, None, 1.0])
-    assert (s["median"], s["low"], s["k"], s["n"]) == (3.0, 1.0, 2, 3) and math.isinf(s["high"])
+    assert (s["median"], s["low"], s["k"], s["n"]) == (3.0, 1.0, 2, 3) and math.isinf(
+        s["high"]
+    )
     assert math.isinf(R.seed_summary([None, None, 1.0])["median"])
 
 
 def test_bootstrap_interval_coverage():
-    # seeds' curves min(1, a t), a ~ U(0.04, 0.06): the true mean curve reaches 0.5 at epoch 10
-    # with 20 seeds the percentile interval covers about 93% (binomial s.e. over 300 reps: 1.5%):
+    # seeds' curves min(1, a t), a ~ U(0.04, 0.06): the true mean curve reaches 0.5 at
+    # epoch 10
+    # with 20 seeds the percentile interval covers about 93% (binomial s.e. over 300
+    # reps: 1.5%):
     # far below 0.88 it would be too narrow, near 1 too wide to mean anything
     assert 0.88 <= R.bootstrap_coverage(20, 300) <= 0.985
-    # with 3 seeds, as in part of our grid, it covers clearly less than 95% (measured: about 75%);
+    # with 3 seeds, as in part of our grid, it covers clearly less than 95%
+    # (measured: about 75%);
     # the book says so beside the table
     assert 0.6 <= R.bootstrap_coverage(3, 300) <= 0.88
 
@@ -152,6 +228,12 @@ def test_learning_curves_and_grid():
     m = curves[("FetchPush-v4", "her")]
     assert m.n == 2 and len(m.x) == 10 and m.carried[-1]
     cells = R.grid_cells()
-    assert ("FetchReach-v4", "her-ebp") not in cells and ("FetchPush-v4", "her-ebp") in cells
+    assert ("FetchReach-v4", "her-ebp") not in cells and (
+        "FetchPush-v4",
+        "her-ebp",
+    ) in cells
     assert len(cells) == 3 * 8 - 1
-    assert R.threshold("FetchReach-v4") == 1.0 and R.threshold("FetchPickAndPlace-v4") == 0.95
+    assert (
+        R.threshold("FetchReach-v4") == 1.0
+        and R.threshold("FetchPickAndPlace-v4") == 0.95
+    )

@@ -1,9 +1,11 @@
 """Opening a policy or checkpoint never runs code from the file (issue 20).
 
-Every torch file the project reads goes through `acder_lite.io.load_torch`: torch.load with
-weights_only=True and the few numpy globals of `io.SAFE_GLOBALS`, then a check of our layout. A
-file that is not ours gets one line naming it, exit code 2, no traceback, and nothing from it runs.
+Every torch file the project reads goes through `acder_lite.io.load_torch`: torch.load
+with weights_only=True and the few numpy globals of `io.SAFE_GLOBALS`, then a check of
+our layout. A file that is not ours gets one line naming it, exit code 2, no traceback,
+and nothing from it runs.
 """
+
 import glob
 import os
 import pickle
@@ -20,8 +22,15 @@ from acder_lite.trainer import Policy, Trainer
 from conftest import ROOT, tiny_config
 from conftest import listening as _listening
 
-COMMITTED = sorted(glob.glob(os.path.join(ROOT, "experiments", "protocol-v1", "**", "policy.pt"), recursive=True))
-REACH = os.path.join(ROOT, "experiments", "protocol-v1", "FetchReach-v4", "her", "seed0", "policy.pt")
+COMMITTED = sorted(
+    glob.glob(
+        os.path.join(ROOT, "experiments", "protocol-v1", "**", "policy.pt"),
+        recursive=True,
+    )
+)
+REACH = os.path.join(
+    ROOT, "experiments", "protocol-v1", "FetchReach-v4", "her", "seed0", "policy.pt"
+)
 
 
 def one_line(p, *needles) -> str:
@@ -35,6 +44,7 @@ def one_line(p, *needles) -> str:
 
 
 # ----- files that would run something when unpickled
+
 
 class _System:
     """Unpickling calls os.system('touch MARKER')."""
@@ -57,13 +67,16 @@ class _Exec:
 
 
 def _crafted(tmp_path, kind: str, marker) -> str:
-    """A file whose unpickling (by pickle, or torch.load(weights_only=False)) creates `marker`."""
+    """A file whose unpickling (by pickle, or torch.load(weights_only=False))
+    creates `marker`."""
     path = tmp_path / f"{kind}.pt"
-    if kind == "torch-system":            # torch.save of a policy.pt-like dict with the payload inside
+    if (
+        kind == "torch-system"
+    ):  # torch.save of a policy.pt-like dict with the payload inside
         torch.save({"policy": _System(marker)}, path)
     elif kind == "torch-exec":
         torch.save(_Exec(marker), path)
-    elif kind == "pickle-system":          # a plain pickle.dump file
+    elif kind == "pickle-system":  # a plain pickle.dump file
         with open(path, "wb") as f:
             pickle.dump(_System(marker), f)
     else:
@@ -75,7 +88,8 @@ CRAFTED = ["torch-system", "torch-exec", "pickle-system"]
 
 
 def test_the_payloads_are_live(tmp_path):
-    """Guard for the tests below: unpickled the unsafe way, each crafted file does create its marker."""
+    """Guard for the tests below: unpickled the unsafe way,
+    each crafted file does create its marker."""
     for kind in CRAFTED:
         marker = tmp_path / f"live-{kind}"
         path = _crafted(tmp_path, kind, marker)
@@ -101,7 +115,9 @@ def test_python_api_refuses_a_crafted_pickle(tmp_path, kind):
     if kind == "torch-exec":
         assert "exec" in msg, msg
     assert not marker.exists()
-    assert set(map(repr, torch.serialization.get_safe_globals())) == before  # SAFE_GLOBALS only inside load_torch
+    assert (
+        set(map(repr, torch.serialization.get_safe_globals())) == before
+    )  # SAFE_GLOBALS only inside load_torch
 
 
 @pytest.mark.parametrize("kind", CRAFTED)
@@ -115,7 +131,8 @@ def test_eval_refuses_a_crafted_pickle(tmp_path, cli, kind):
 
 @pytest.mark.parametrize("kind", ["torch-system", "pickle-system"])
 def test_diagnose_refuses_a_crafted_pickle(tmp_path, cli, kind):
-    """`diagnose RUN` reads RUN/checkpoint.pt; `diagnose RUN --episodes N` reads RUN/policy.pt."""
+    """`diagnose RUN` reads RUN/checkpoint.pt;
+    `diagnose RUN --episodes N` reads RUN/policy.pt."""
     marker = tmp_path / "marker"
     run = tmp_path / "run"
     run.mkdir()
@@ -128,8 +145,8 @@ def test_diagnose_refuses_a_crafted_pickle(tmp_path, cli, kind):
 
 
 def test_a_torch_zip_holding_a_protocol_4_pickle_is_refused_in_one_line(tmp_path):
-    """A crafted zip whose data.pkl torch's safe unpickler cannot parse (and whose warning must not
-    become a second line)."""
+    """A crafted zip whose data.pkl torch's safe unpickler cannot parse (and whose
+    warning must not become a second line)."""
     marker = tmp_path / "marker"
     src = tmp_path / "src.pt"
     torch.save({"policy": 1}, src)
@@ -142,9 +159,14 @@ def test_a_torch_zip_holding_a_protocol_4_pickle_is_refused_in_one_line(tmp_path
 
 
 def _rewrite_pickle(src, dst, edit) -> None:
-    """Copy the torch zip `src` to `dst` with its data.pkl replaced by edit(data.pkl)."""
+    """Copy the torch zip `src` to `dst` with its data.pkl replaced by
+    edit(data.pkl)."""
     import zipfile
-    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w", zipfile.ZIP_STORED) as zout:
+
+    with (
+        zipfile.ZipFile(src) as zin,
+        zipfile.ZipFile(dst, "w", zipfile.ZIP_STORED) as zout,
+    ):
         for item in zin.infolist():
             data = zin.read(item.filename)
             if item.filename.endswith("data.pkl"):
@@ -153,25 +175,38 @@ def _rewrite_pickle(src, dst, edit) -> None:
 
 
 def test_a_policy_written_by_numpy_1_loads(tmp_path):
-    """numpy 1.x wrote its array reconstructor as numpy.core.multiarray._reconstruct (numpy 2:
-    numpy._core); SAFE_GLOBALS allows that name for the same function."""
+    """numpy 1.x wrote its array reconstructor as numpy.core.multiarray._reconstruct
+    (numpy 2: numpy._core); SAFE_GLOBALS allows that name for the same function."""
     src = tmp_path / "v2.pt"
     torch.save(dict(policy=_policy()), src)
     old = tmp_path / "v1.pt"
-    _rewrite_pickle(src, old, lambda b: b.replace(b"numpy._core.multiarray\n", b"numpy.core.multiarray\n"))
-    assert "numpy.core.multiarray._reconstruct" in torch.serialization.get_unsafe_globals_in_checkpoint(str(old))
+    _rewrite_pickle(
+        src,
+        old,
+        lambda b: b.replace(b"numpy._core.multiarray\n", b"numpy.core.multiarray\n"),
+    )
+    assert (
+        "numpy.core.multiarray._reconstruct"
+        in torch.serialization.get_unsafe_globals_in_checkpoint(str(old))
+    )
     a, b = load_torch(str(src))["policy"], load_torch(str(old))["policy"]
-    assert np.array_equal(a["o_norm"]["sum"], b["o_norm"]["sum"]) and a["o_norm"]["sum"].dtype == np.float64
+    assert (
+        np.array_equal(a["o_norm"]["sum"], b["o_norm"]["sum"])
+        and a["o_norm"]["sum"].dtype == np.float64
+    )
 
 
 # ----- files that are not ours (but run nothing)
+
 
 def _policy(path=REACH) -> dict:
     return load_torch(path)["policy"]
 
 
 def _wrong_actor(pol):
-    pol["actor"]["net.0.weight"] = torch.zeros(pol["shape"]["hidden"], pol["shape"]["in_dim"] + 3)
+    pol["actor"]["net.0.weight"] = torch.zeros(
+        pol["shape"]["hidden"], pol["shape"]["in_dim"] + 3
+    )
     return pol, "net.0.weight"
 
 
@@ -181,7 +216,7 @@ def _missing_layer(pol):
 
 
 def _wrong_record(pol):
-    pol["shape"]["hidden"] = 64          # the tensors are 256 wide
+    pol["shape"]["hidden"] = 64  # the tensors are 256 wide
     return pol, "shape"
 
 
@@ -205,18 +240,32 @@ def _not_a_number(pol):
     return pol, "layers"
 
 
-BROKEN_POLICIES = [_wrong_actor, _missing_layer, _wrong_record, _wrong_norm, _in_dim, _no_key, _not_a_number]
+BROKEN_POLICIES = [
+    _wrong_actor,
+    _missing_layer,
+    _wrong_record,
+    _wrong_norm,
+    _in_dim,
+    _no_key,
+    _not_a_number,
+]
 
 
-@pytest.mark.parametrize("breakit", BROKEN_POLICIES, ids=lambda f: f.__name__.strip("_"))
-def test_a_policy_that_does_not_fit_its_record_is_refused_before_building(tmp_path, breakit):
+@pytest.mark.parametrize(
+    "breakit", BROKEN_POLICIES, ids=lambda f: f.__name__.strip("_")
+)
+def test_a_policy_that_does_not_fit_its_record_is_refused_before_building(
+    tmp_path, breakit
+):
     pol, needle = breakit(_policy())
     path = str(tmp_path / "policy.pt")
     torch.save(dict(policy=pol), path)
     with pytest.raises(CheckpointError) as e:
         load_torch(path)
-    assert "\n" not in str(e.value) and path in str(e.value) and needle in str(e.value), str(e.value)
-    with pytest.raises(CheckpointError) as e:       # the Python API, from a dict
+    assert (
+        "\n" not in str(e.value) and path in str(e.value) and needle in str(e.value)
+    ), str(e.value)
+    with pytest.raises(CheckpointError) as e:  # the Python API, from a dict
         Policy.from_state_dict(pol)
     assert needle in str(e.value)
 
@@ -233,7 +282,7 @@ def test_eval_refuses_files_that_are_not_ours(tmp_path, cli):
     (tmp_path / "truncated.pt").write_bytes(open(REACH, "rb").read()[:4000])
     cases.append(("truncated.pt", "truncated"))
     pol = _policy()
-    pol["env"] = "FetchPush-v4"                      # a Reach policy (10 + 3 inputs) on Push (25 + 3)
+    pol["env"] = "FetchPush-v4"  # a Reach policy (10 + 3 inputs) on Push (25 + 3)
     torch.save(dict(policy=pol), tmp_path / "other-env.pt")
     cases.append(("other-env.pt", "10/3/4"))
     pol = _policy()
@@ -241,7 +290,11 @@ def test_eval_refuses_files_that_are_not_ours(tmp_path, cli):
     torch.save(dict(policy=pol), tmp_path / "env.pt")
     cases.append(("env.pt", "FetchReach-v4"))
     for name, needle in cases:
-        one_line(cli("eval", "--checkpoint", str(tmp_path / name), "--episodes", "1"), name, needle)
+        one_line(
+            cli("eval", "--checkpoint", str(tmp_path / name), "--episodes", "1"),
+            name,
+            needle,
+        )
 
 
 def test_an_incomplete_checkpoint_is_refused(tmp_path, fresh):
@@ -255,12 +308,16 @@ def test_an_incomplete_checkpoint_is_refused(tmp_path, fresh):
 
 # ----- our own files keep loading
 
+
 def test_every_committed_policy_loads_safely():
     assert len(COMMITTED) >= 40
     for path in COMMITTED:
         pol = load_torch(path)["policy"]
         p = Policy.from_state_dict(pol)
-        o, g = np.zeros((2, pol["norm"]["o"]), np.float32), np.zeros((2, pol["norm"]["g"]), np.float32)
+        o, g = (
+            np.zeros((2, pol["norm"]["o"]), np.float32),
+            np.zeros((2, pol["norm"]["g"]), np.float32),
+        )
         assert p(o, g).shape == (2, pol["shape"]["act_dim"])
 
 
@@ -272,10 +329,14 @@ def test_eval_runs_a_committed_policy(cli):
 
 @pytest.fixture(scope="module")
 def fresh(tmp_path_factory):
-    """One-epoch runs whose checkpoints hold every part: S-ICM and the start pool (acder), the
-    PER sum tree (her-per), the trajectory energies (her-ebp)."""
+    """One-epoch runs whose checkpoints hold every part: S-ICM and the start pool
+    (acder), the PER sum tree (her-per), the trajectory energies (her-ebp)."""
     out = {}
-    for method, env in (("acder", "FetchReach-v4"), ("her-per", "FetchPush-v4"), ("her-ebp", "FetchPush-v4")):
+    for method, env in (
+        ("acder", "FetchReach-v4"),
+        ("her-per", "FetchPush-v4"),
+        ("her-ebp", "FetchPush-v4"),
+    ):
         d = str(tmp_path_factory.mktemp(method))
         tr = Trainer(tiny_config(env=env, method=method, epochs=1, cycles=2), d)
         tr.train(progress=False)
@@ -295,7 +356,11 @@ def _same(a, b, where="") -> None:
         for i, (x, y) in enumerate(zip(a, b)):
             _same(x, y, f"{where}[{i}]")
     elif isinstance(a, np.ndarray):
-        assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b, equal_nan=True), where
+        assert (
+            a.dtype == b.dtype
+            and a.shape == b.shape
+            and np.array_equal(a, b, equal_nan=True)
+        ), where
     elif isinstance(a, torch.Tensor):
         assert a.dtype == b.dtype and torch.equal(a, b), where
     elif isinstance(a, float) and np.isnan(a):
@@ -309,14 +374,23 @@ def test_a_fresh_checkpoint_loads_safely_and_whole(fresh, method):
     tr = fresh[method + ":trainer"]
     path = os.path.join(fresh[method], "checkpoint.pt")
     ck = load_torch(path)
-    _same(ck, torch.load(path, weights_only=False))   # our own file: the unsafe way gives the same, whole
+    _same(
+        ck, torch.load(path, weights_only=False)
+    )  # our own file: the unsafe way gives the same, whole
     assert set(aio.CHECKPOINT_KEYS) <= set(ck)
-    assert str(ck["versions"]["torch"]) == torch.__version__      # a TorchVersion, allowed by name
+    assert (
+        str(ck["versions"]["torch"]) == torch.__version__
+    )  # a TorchVersion, allowed by name
     # numpy's PCG64 state: Python ints of 128 bits, carried as they are
     st = ck["rng"]["numpy"]
-    assert st["bit_generator"] == "PCG64" and max(st["state"]["state"], st["state"]["inc"]) > 2 ** 64
-    assert np.array_equal(np.random.Generator(_pcg(st)).random(5),
-                          np.random.Generator(_pcg(tr.rng.bit_generator.state)).random(5))
+    assert (
+        st["bit_generator"] == "PCG64"
+        and max(st["state"]["state"], st["state"]["inc"]) > 2**64
+    )
+    assert np.array_equal(
+        np.random.Generator(_pcg(st)).random(5),
+        np.random.Generator(_pcg(tr.rng.bit_generator.state)).random(5),
+    )
     # the policy rebuilt from policy.pt acts exactly as the trainer's
     pol = load_torch(os.path.join(fresh[method], "policy.pt"))["policy"]
     p = Policy.from_state_dict(pol)
@@ -333,12 +407,19 @@ def _pcg(state):
 
 
 def test_only_the_named_globals_are_needed(fresh):
-    """What the files name beyond torch's own safe set is exactly what SAFE_GLOBALS allows, by name."""
-    allowed = {name if isinstance(g, tuple) else f"{g.__module__}.{g.__qualname__}"
-               for g in aio.SAFE_GLOBALS for name in ([g[1]] if isinstance(g, tuple) else [None])}
+    """What the files name beyond torch's own safe set is exactly what SAFE_GLOBALS
+    allows, by name."""
+    allowed = {
+        name if isinstance(g, tuple) else f"{g.__module__}.{g.__qualname__}"
+        for g in aio.SAFE_GLOBALS
+        for name in ([g[1]] if isinstance(g, tuple) else [None])
+    }
     seen = set()
-    files = COMMITTED + [os.path.join(fresh[m], f) for m in ("acder", "her-per", "her-ebp")
-                         for f in ("checkpoint.pt", "policy.pt")]
+    files = COMMITTED + [
+        os.path.join(fresh[m], f)
+        for m in ("acder", "her-per", "her-ebp")
+        for f in ("checkpoint.pt", "policy.pt")
+    ]
     for path in files:
         seen |= set(torch.serialization.get_unsafe_globals_in_checkpoint(path))
     assert seen <= allowed, seen - allowed
@@ -346,28 +427,34 @@ def test_only_the_named_globals_are_needed(fresh):
 
 def test_diagnose_reads_a_fresh_checkpoint(fresh):
     from acder_lite import diagnose as D
+
     d = D.diagnose(fresh["acder"], batches=1)
     assert d["method"] == "acder" and "curiosity" in d
 
 
 # ----- local servers listen on 127.0.0.1 only
 
+
 def test_meshcat_listens_on_localhost_only():
     from acder_lite import viz
+
     try:
         import meshcat  # noqa: F401
+
         vis = viz.new_visualizer()
     except Exception as e:  # no meshcat, or its server cannot start here
         pytest.skip(f"meshcat cannot start: {type(e).__name__}: {e}")
     try:
         pid = vis.window.server_proc.pid
         socks = []
-        for _ in range(20):  # the web server is up before the zmq url is printed; be patient anyway
+        for _ in range(
+            20
+        ):  # the web server is up before the zmq url is printed; be patient anyway
             socks = _listening(pid)
             if len(socks) >= 2:
                 break
             time.sleep(0.1)
-        assert len(socks) >= 2, socks                  # ZeroMQ and the web page
+        assert len(socks) >= 2, socks  # ZeroMQ and the web page
         assert all(ip in ("127.0.0.1", "::1") for ip, _ in socks), socks
         assert vis.window.web_url.startswith("http://127.0.0.1:")
     finally:
@@ -376,7 +463,8 @@ def test_meshcat_listens_on_localhost_only():
 
 @pytest.mark.parametrize("kind", ["torch-system", "policy-only"])
 def test_resume_refuses_a_file_that_is_not_a_training_state(tmp_path, cli, kind):
-    """train --resume DIR on a crafted checkpoint.pt, or on a policy.pt renamed: one line, exit 2."""
+    """train --resume DIR on a crafted checkpoint.pt, or on a policy.pt renamed:
+    one line, exit 2."""
     marker = tmp_path / "marker"
     run = tmp_path / "run"
     run.mkdir()
@@ -385,4 +473,6 @@ def test_resume_refuses_a_file_that_is_not_a_training_state(tmp_path, cli, kind)
     else:
         os.replace(_crafted(tmp_path, kind, marker), run / "checkpoint.pt")
     one_line(cli("train", "--resume", str(run)), "checkpoint.pt")
-    assert not marker.exists() and sorted(p.name for p in run.iterdir()) == ["checkpoint.pt"]
+    assert not marker.exists() and sorted(p.name for p in run.iterdir()) == [
+        "checkpoint.pt"
+    ]

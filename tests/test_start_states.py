@@ -8,10 +8,17 @@ def _buffer():
     T = 5
     buf = EpisodeBuffer(1000, T, dict(o=2, g=3, u=4, state=6))
     n = 6
-    eps = dict(o=np.zeros((n, T + 1, 2)), ag=np.zeros((n, T + 1, 3)), g=np.zeros((n, T, 3)),
-               u=np.zeros((n, T, 4)), state=np.zeros((n, T + 1, 6)),
-               success=np.array([True, False, True, False, False, True]))
-    eps["state"][:] = np.arange(n)[:, None, None] * 100 + np.arange(T + 1)[None, :, None]
+    eps = dict(
+        o=np.zeros((n, T + 1, 2)),
+        ag=np.zeros((n, T + 1, 3)),
+        g=np.zeros((n, T, 3)),
+        u=np.zeros((n, T, 4)),
+        state=np.zeros((n, T + 1, 6)),
+        success=np.array([True, False, True, False, False, True]),
+    )
+    eps["state"][:] = (
+        np.arange(n)[:, None, None] * 100 + np.arange(T + 1)[None, :, None]
+    )
     eps["g"][:] = np.arange(n)[:, None, None]
     buf.store(eps)
     return buf
@@ -19,7 +26,9 @@ def _buffer():
 
 def test_select_candidate_only_successful_and_largest():
     r = np.array([0.9, 0.5, 0.7, 0.1])
-    assert select_candidate(r, np.array([False, True, True, False])) == 2   # 0.9 is from a failure
+    assert (
+        select_candidate(r, np.array([False, True, True, False])) == 2
+    )  # 0.9 is from a failure
     assert select_candidate(r, np.array([False, False, False, False])) is None
 
 
@@ -36,8 +45,10 @@ def test_selector_pool_holds_successful_states_with_max_reward():
         if ok.any():
             assert row == np.flatnonzero(ok)[np.argmax(r[ok])]
             cand = sel.pool[-1]
-            assert buf.success[int(cand["state"][0] // 100)]                 # a successful episode
-            np.testing.assert_array_equal(cand["state"], buf.state[ep[row], t[row] + 1])  # s_{t+1}
+            assert buf.success[int(cand["state"][0] // 100)]  # a successful episode
+            np.testing.assert_array_equal(
+                cand["state"], buf.state[ep[row], t[row] + 1]
+            )  # s_{t+1}
             assert cand["r_int"] == r[row]
     assert len(sel.pool) == 3
 
@@ -46,9 +57,9 @@ def test_draw_follows_alpha():
     buf = _buffer()
     sel = StartStateSelector(pool_size=5, alpha0=0.8)
     rng = np.random.default_rng(1)
-    assert sel.draw(rng) is None                       # empty pool: normal reset
+    assert sel.draw(rng) is None  # empty pool: normal reset
     sel.offer(dict(ep=np.array([0]), t=np.array([2])), np.array([0.3]), buf)
-    sel.set_success_rate(1.0)                          # alpha = 0.3
+    sel.set_success_rate(1.0)  # alpha = 0.3
     draws = [sel.draw(rng) is not None for _ in range(4000)]
     assert abs(np.mean(draws) - 0.3) < 0.03
     sel.alpha0 = 0.0

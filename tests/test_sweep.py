@@ -1,4 +1,6 @@
-"""The sweep: planning (run / resume / skip), argument errors, and one tiny real interrupted sweep."""
+"""The sweep: planning (run / resume / skip), argument errors,
+and one tiny real interrupted sweep."""
+
 import argparse
 import csv
 import os
@@ -30,8 +32,9 @@ def touch(d: Path, *names):
 
 @pytest.fixture
 def grid(tmp_path):
-    """seed0 complete, seed1 interrupted (checkpoint, no done.json), seed2 new, seed3 a progress.csv
-    without checkpoint (committed results, or stopped before the first epoch), seed4 only a log."""
+    """seed0 complete, seed1 interrupted (checkpoint, no done.json), seed2 new, seed3 a
+    progress.csv without checkpoint (committed results, or stopped before the first
+    epoch), seed4 only a log."""
     base = tmp_path / "FetchReach-v4" / "her"
     touch(base / "seed0", "progress.csv", "config.json", "checkpoint.pt", "done.json")
     touch(base / "seed1", "progress.csv", "config.json", "checkpoint.pt")
@@ -42,59 +45,152 @@ def grid(tmp_path):
 
 def test_plan(grid):
     cells = S.plan(["FetchReach-v4"], ["her"], [0, 1, 2, 3, 4], grid)
-    assert [(c.seed, c.action) for c in cells] == [(0, "skip"), (1, "resume"), (2, "run"), (3, "skip"), (4, "run")]
+    assert [(c.seed, c.action) for c in cells] == [
+        (0, "skip"),
+        (1, "resume"),
+        (2, "run"),
+        (3, "skip"),
+        (4, "run"),
+    ]
     assert cells[1].out == grid / "FetchReach-v4" / "her" / "seed1"
     assert "nothing to resume" in cells[3].note
 
 
 def test_plan_ebp_needs_an_object(tmp_path):
-    """Config's own check decides (one place): EBP on a task without an object is skipped."""
+    """Config's own check decides (one place):
+    EBP on a task without an object is skipped."""
     cells = S.plan(["FetchReach-v4", "FetchPush-v4"], ["her-ebp"], [0], tmp_path)
-    assert [(c.env, c.action) for c in cells] == [("FetchReach-v4", "skip"), ("FetchPush-v4", "run")]
+    assert [(c.env, c.action) for c in cells] == [
+        ("FetchReach-v4", "skip"),
+        ("FetchPush-v4", "run"),
+    ]
     assert "needs a task with an object" in cells[0].note
 
 
 def test_dry_run(grid, capsys):
-    args = parse(["--envs", "FetchReach-v4", "--methods", "her", "her-ebp", "--seeds", "0", "1", "2",
-                  "--results", str(grid), "--jobs", "2", "--dry-run"])
+    args = parse(
+        [
+            "--envs",
+            "FetchReach-v4",
+            "--methods",
+            "her",
+            "her-ebp",
+            "--seeds",
+            "0",
+            "1",
+            "2",
+            "--results",
+            str(grid),
+            "--jobs",
+            "2",
+            "--dry-run",
+        ]
+    )
     assert S.run(args) == 0
     out = capsys.readouterr().out.splitlines()
     actions = [line.split()[:2] for line in out[:-1]]
-    assert actions == [["skip", "FetchReach-v4/her/seed0"], ["resume", "FetchReach-v4/her/seed1"],
-                       ["run", "FetchReach-v4/her/seed2"]] + [["skip", f"FetchReach-v4/her-ebp/seed{k}"]
-                                                             for k in range(3)]
+    assert actions == [
+        ["skip", "FetchReach-v4/her/seed0"],
+        ["resume", "FetchReach-v4/her/seed1"],
+        ["run", "FetchReach-v4/her/seed2"],
+    ] + [["skip", f"FetchReach-v4/her-ebp/seed{k}"] for k in range(3)]
     assert "1 to run, 1 to resume, 4 to skip" in out[-1]
-    assert not (grid / "FetchReach-v4" / "her" / "seed2").exists()  # a dry run creates nothing
+    assert not (
+        grid / "FetchReach-v4" / "her" / "seed2"
+    ).exists()  # a dry run creates nothing
 
 
 def test_train_argv(grid):
-    args = parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "0", "--results", str(grid),
-                  "--epochs", "3", "--eval-every-cycles", "5", "--train-args=--cycles 2"])
+    args = parse(
+        [
+            "--envs",
+            "FetchReach-v4",
+            "--methods",
+            "her",
+            "--seeds",
+            "0",
+            "--results",
+            str(grid),
+            "--epochs",
+            "3",
+            "--eval-every-cycles",
+            "5",
+            "--train-args=--cycles 2",
+        ]
+    )
     assert S.check_args(args) is None
     assert args.threads == 1 and args.jobs == max(1, os.cpu_count() or 1)
     fresh, resume = S.plan(["FetchReach-v4"], ["her"], [2, 1], grid)
     argv = S.train_argv(fresh, args, resume=False)
-    assert argv[:1] == ["train"] and argv[argv.index("--out") + 1] == str(fresh.out) and "--resume" not in argv
-    assert argv[argv.index("--epochs") + 1] == "3" and argv[argv.index("--eval-every-cycles") + 1] == "5"
+    assert (
+        argv[:1] == ["train"]
+        and argv[argv.index("--out") + 1] == str(fresh.out)
+        and "--resume" not in argv
+    )
+    assert (
+        argv[argv.index("--epochs") + 1] == "3"
+        and argv[argv.index("--eval-every-cycles") + 1] == "5"
+    )
     assert argv[argv.index("--threads") + 1] == "1" and "--workers" not in argv
     assert argv[-3:] == ["--cycles", "2", "--quiet"]
     argv = S.train_argv(resume, args, resume=True)
     assert argv[argv.index("--resume") + 1] == str(resume.out) and "--out" not in argv
 
 
-@pytest.mark.parametrize("argv, msg", [
-    (["--envs", "FetchFly-v4", "--methods", "her"], "unknown env 'FetchFly-v4'"),
-    (["--envs", "FetchReach-v4", "--methods", "dqn"], "unknown method 'dqn'"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--jobs", "0"], "--jobs=0"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--threads", "0"], "--threads=0"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--epochs", "0"], "epochs=0 is not allowed"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--success-threshold", "2"], "success_threshold=2.0 is not allowed"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--stop-patience", "-1"], "stop_patience=-1 is not allowed"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--stop-gap-episodes", "-1"], "stop_gap_episodes=-1"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--eval-every-cycles", "-1"], "eval_every_cycles=-1"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--cycles '2"], "--train-args"),
-    (["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--out x"], "may not hold --out"),
-])
+@pytest.mark.parametrize(
+    "argv, msg",
+    [
+        (["--envs", "FetchFly-v4", "--methods", "her"], "unknown env 'FetchFly-v4'"),
+        (["--envs", "FetchReach-v4", "--methods", "dqn"], "unknown method 'dqn'"),
+        (["--envs", "FetchReach-v4", "--methods", "her", "--jobs", "0"], "--jobs=0"),
+        (
+            ["--envs", "FetchReach-v4", "--methods", "her", "--threads", "0"],
+            "--threads=0",
+        ),
+        (
+            ["--envs", "FetchReach-v4", "--methods", "her", "--epochs", "0"],
+            "epochs=0 is not allowed",
+        ),
+        (
+            ["--envs", "FetchReach-v4", "--methods", "her", "--success-threshold", "2"],
+            "success_threshold=2.0 is not allowed",
+        ),
+        (
+            ["--envs", "FetchReach-v4", "--methods", "her", "--stop-patience", "-1"],
+            "stop_patience=-1 is not allowed",
+        ),
+        (
+            [
+                "--envs",
+                "FetchReach-v4",
+                "--methods",
+                "her",
+                "--stop-gap-episodes",
+                "-1",
+            ],
+            "stop_gap_episodes=-1",
+        ),
+        (
+            [
+                "--envs",
+                "FetchReach-v4",
+                "--methods",
+                "her",
+                "--eval-every-cycles",
+                "-1",
+            ],
+            "eval_every_cycles=-1",
+        ),
+        (
+            ["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--cycles '2"],
+            "--train-args",
+        ),
+        (
+            ["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--out x"],
+            "may not hold --out",
+        ),
+    ],
+)
 def test_argument_errors(tmp_path, capsys, argv, msg):
     args = parse(argv + ["--seeds", "0", "--results", str(tmp_path), "--dry-run"])
     assert S.run(args) == 2
@@ -105,8 +201,18 @@ def test_argument_errors(tmp_path, capsys, argv, msg):
 
 def test_results_folder_that_is_a_file(tmp_path, capsys):
     (tmp_path / "results").write_text("not a folder")
-    args = parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "0", "--results",
-                  str(tmp_path / "results")])
+    args = parse(
+        [
+            "--envs",
+            "FetchReach-v4",
+            "--methods",
+            "her",
+            "--seeds",
+            "0",
+            "--results",
+            str(tmp_path / "results"),
+        ]
+    )
     assert S.run(args) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "is a file" in err
@@ -114,24 +220,71 @@ def test_results_folder_that_is_a_file(tmp_path, capsys):
 
 
 def test_address_that_does_not_answer(tmp_path, capsys):
-    """A cluster address where nothing listens: one line, exit 2, nothing written, no Ray started."""
-    with socket.socket() as s:  # a free port on loopback, then closed: nothing listens there
+    """A cluster address where nothing listens: one line, exit 2, nothing written,
+    no Ray started."""
+    with (
+        socket.socket() as s
+    ):  # a free port on loopback, then closed: nothing listens there
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    args = parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "0", "--results",
-                  str(tmp_path / "r"), "--address", f"ray://127.0.0.1:{port}"])
+    args = parse(
+        [
+            "--envs",
+            "FetchReach-v4",
+            "--methods",
+            "her",
+            "--seeds",
+            "0",
+            "--results",
+            str(tmp_path / "r"),
+            "--address",
+            f"ray://127.0.0.1:{port}",
+        ]
+    )
     t0 = time.monotonic()
     assert S.run(args) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "does not answer" in err and time.monotonic() - t0 < 10
+    assert (
+        err.count("\n") == 1 and "does not answer" in err and time.monotonic() - t0 < 10
+    )
     assert list(tmp_path.iterdir()) == []
-    assert S.run(parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "0", "--results",
-                        str(tmp_path / "r"), "--address", "nonsense"])) == 2
+    assert (
+        S.run(
+            parse(
+                [
+                    "--envs",
+                    "FetchReach-v4",
+                    "--methods",
+                    "her",
+                    "--seeds",
+                    "0",
+                    "--results",
+                    str(tmp_path / "r"),
+                    "--address",
+                    "nonsense",
+                ]
+            )
+        )
+        == 2
+    )
     assert "'auto' or ray://HOST:PORT" in capsys.readouterr().err
 
 
 def test_plan_and_grid_options_exclude_each_other(tmp_path, capsys):
-    assert S.run(parse(["--plan", str(tmp_path / "p.toml"), "--envs", "FetchReach-v4", "--dry-run"])) == 2
+    assert (
+        S.run(
+            parse(
+                [
+                    "--plan",
+                    str(tmp_path / "p.toml"),
+                    "--envs",
+                    "FetchReach-v4",
+                    "--dry-run",
+                ]
+            )
+        )
+        == 2
+    )
     assert "exclude each other" in capsys.readouterr().err
     assert S.run(parse(["--envs", "FetchReach-v4", "--dry-run"])) == 2
     assert "required (or --plan FILE)" in capsys.readouterr().err
@@ -164,75 +317,153 @@ hold = "waits for the readings"
 
 
 def test_read_plan(tmp_path):
-    """Groups expand to cells; two queues alternate; names, roots, config, defaults and holds apply."""
+    """Groups expand to cells; two queues alternate; names, roots, config,
+    defaults and holds apply."""
     (tmp_path / "results").mkdir()
     path = tmp_path / "results" / "plan.toml"
     path.write_text(PLAN)
-    touch(tmp_path / "results" / "FetchReach-v4" / "her" / "seed0", "progress.csv", "checkpoint.pt")
+    touch(
+        tmp_path / "results" / "FetchReach-v4" / "her" / "seed0",
+        "progress.csv",
+        "checkpoint.pt",
+    )
     cells = S.read_plan(path)
     assert [(c.name, c.action) for c in cells] == [
         ("FetchPush-v4/sicm-raw/seed0", "run"),
         ("FetchReach-v4/her/seed0", "resume"),
         ("FetchPush-v4/sicm-raw/seed1", "run"),
-        ("FetchReach-v4/her-ebp/seed0", "skip"),       # EBP needs an object
+        ("FetchReach-v4/her-ebp/seed0", "skip"),  # EBP needs an object
         ("FetchPush-v4/her/seed0", "run"),
         ("FetchPush-v4/her-ebp/seed0", "run"),
-        ("FetchReach-v4/acder/seed0", "skip"),         # on hold
+        ("FetchReach-v4/acder/seed0", "skip"),  # on hold
     ]
     assert cells[0].out == tmp_path / "exp" / "FetchPush-v4" / "sicm-raw" / "seed0"
     assert cells[0].options == {"update_dtype": "float32", "sicm_input": "raw"}
     assert cells[4].options == {"update_dtype": "float32"}
     assert cells[-1].note == "on hold: waits for the readings"
     cmd = S.train_argv(cells[0], parse(["--plan", str(path)]), resume=False)
-    assert cmd[cmd.index("--sicm-input") + 1] == "raw" and cmd[cmd.index("--method") + 1] == "acder"
+    assert (
+        cmd[cmd.index("--sicm-input") + 1] == "raw"
+        and cmd[cmd.index("--method") + 1] == "acder"
+    )
     assert cmd[cmd.index("--out") + 1] == str(cells[0].out)
 
 
-@pytest.mark.parametrize("text, msg", [
-    ("[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\nfoo = 1\n", "unknown key 'foo'"),
-    ("[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\n", "seeds must be a non-empty list"),
-    ("[[group]]\nenvs = ['FetchFly-v4']\nmethods = ['her']\nseeds = [0]\n", "unknown env 'FetchFly-v4'"),
-    ("[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her', 'acder']\nseeds = [0]\nname = 'x'\n", "name needs exactly one method"),
-    ("[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\nconfig = { sicm_input = 'pixels' }\n", "sicm_input='pixels'"),
-    ("[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n" * 2, "planned twice"),
-    ("[[group]\n", "not valid TOML"),
-    ("x = 1\n", "no [[group]] tables"),
-])
+@pytest.mark.parametrize(
+    "text, msg",
+    [
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
+            "foo = 1\n",
+            "unknown key 'foo'",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\n",
+            "seeds must be a non-empty list",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchFly-v4']\nmethods = ['her']\nseeds = [0]\n",
+            "unknown env 'FetchFly-v4'",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her', 'acder']\n"
+            "seeds = [0]\nname = 'x'\n",
+            "name needs exactly one method",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
+            "config = { sicm_input = 'pixels' }\n",
+            "sicm_input='pixels'",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n" * 2,
+            "planned twice",
+        ),
+        ("[[group]\n", "not valid TOML"),
+        ("x = 1\n", "no [[group]] tables"),
+    ],
+)
 def test_bad_plan(tmp_path, capsys, text, msg):
     path = tmp_path / "plan.toml"
     path.write_text(text)
     assert S.run(parse(["--plan", str(path), "--dry-run"])) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and msg in err and str(path) in err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.toml"]  # nothing written
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "plan.toml"
+    ]  # nothing written
 
 
 def test_the_committed_plan_reads():
-    """results/plan.toml, the reproduction grid, is a valid plan: the issue's seed counts, float32."""
+    """results/plan.toml, the reproduction grid, is a valid plan:
+    the issue's seed counts, float32."""
     cells = S.read_plan(ROOT / "results" / "plan.toml")
-    count = lambda env, method: sum(c.env == env and c.out.parent.name == method and "results" in c.out.parts
-                                    for c in cells)
-    assert [count("FetchPush-v4", m) for m in ("her", "acder", "her-icm", "her-per", "her-ebp",
-                                                "acder-no-curiosity")] == [5, 5, 3, 3, 3, 3]
-    assert [count("FetchReach-v4", m) for m in ("her", "her-icm", "her-per", "acder", "acder-no-goal-factor")] == [5, 5, 5, 5, 3]
-    assert [count("FetchPickAndPlace-v4", m) for m in ("her", "acder", "her-ebp", "acder-no-start-states")] == [3, 3, 2, 2]
+    count = lambda env, method: sum(
+        c.env == env and c.out.parent.name == method and "results" in c.out.parts
+        for c in cells
+    )
+    assert [
+        count("FetchPush-v4", m)
+        for m in ("her", "acder", "her-icm", "her-per", "her-ebp", "acder-no-curiosity")
+    ] == [5, 5, 3, 3, 3, 3]
+    assert [
+        count("FetchReach-v4", m)
+        for m in ("her", "her-icm", "her-per", "acder", "acder-no-goal-factor")
+    ] == [5, 5, 5, 5, 3]
+    assert [
+        count("FetchPickAndPlace-v4", m)
+        for m in ("her", "acder", "her-ebp", "acder-no-start-states")
+    ] == [3, 3, 2, 2]
     assert all(c.options.get("update_dtype") == "float32" for c in cells)
 
 
 def test_negative_seed(tmp_path, capsys):
-    assert S.run(parse(["--envs", "FetchReach-v4", "--methods", "her", "--seeds", "-1", "--dry-run"])) == 2
+    assert (
+        S.run(
+            parse(
+                [
+                    "--envs",
+                    "FetchReach-v4",
+                    "--methods",
+                    "her",
+                    "--seeds",
+                    "-1",
+                    "--dry-run",
+                ]
+            )
+        )
+        == 2
+    )
     assert "seeds" in capsys.readouterr().err
 
 
-TINY = ("--workers 1 --cycles 2 --updates-per-cycle 2 --test-episodes 1 --batch-size 16 --hidden 16 "
-        "--buffer-size 5000 --stop-patience 0")
+TINY = (
+    "--workers 1 --cycles 2 --updates-per-cycle 2 --test-episodes 1 --batch-size 16 "
+    "--hidden 16 --buffer-size 5000 --stop-patience 0"
+)
 """A FetchReach run of a few seconds an epoch (for the real Ray sweeps below)."""
 
 
 def _sweep_cmd(results, seeds, epochs):
-    return [sys.executable, "-m", "acder_lite", "sweep", "--envs", "FetchReach-v4", "--methods", "her",
-            "--seeds", *map(str, seeds), "--results", str(results), "--jobs", "2", "--epochs", str(epochs),
-            f"--train-args={TINY}"]
+    return [
+        sys.executable,
+        "-m",
+        "acder_lite",
+        "sweep",
+        "--envs",
+        "FetchReach-v4",
+        "--methods",
+        "her",
+        "--seeds",
+        *map(str, seeds),
+        "--results",
+        str(results),
+        "--jobs",
+        "2",
+        "--epochs",
+        str(epochs),
+        f"--train-args={TINY}",
+    ]
 
 
 def _env():
@@ -241,7 +472,9 @@ def _env():
 
 def _rows(run: Path) -> list[dict]:
     with open(run / "progress.csv") as f:
-        return [{k: v for k, v in r.items() if k != "wall_s"} for r in csv.DictReader(f)]
+        return [
+            {k: v for k, v in r.items() if k != "wall_s"} for r in csv.DictReader(f)
+        ]
 
 
 def _wait_for(pred, proc, timeout):
@@ -259,36 +492,69 @@ def _epochs_done(run: Path) -> int:
         return 0
 
 
-@pytest.mark.xdist_group("ray")  # one local Ray at a time: a busy machine starts them slowly
+@pytest.mark.xdist_group(
+    "ray"
+)  # one local Ray at a time: a busy machine starts them slowly
 def test_ray_grid_completes_then_skips(tmp_path):
-    """Two cells on a local Ray: both done.json; the same command again skips both, starts no Ray."""
+    """Two cells on a local Ray: both done.json; the same command again skips both,
+    starts no Ray."""
     results = tmp_path / "results"
-    out = subprocess.run(_sweep_cmd(results, [0, 1], 2), cwd=tmp_path, env=_env(), capture_output=True,
-                         text=True, timeout=400)
+    out = subprocess.run(
+        _sweep_cmd(results, [0, 1], 2),
+        cwd=tmp_path,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=400,
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     for k in (0, 1):
         run = results / "FetchReach-v4" / "her" / f"seed{k}"
         assert (run / "done.json").exists() and len(_rows(run)) == 2
         assert f"finish FetchReach-v4/her/seed{k}: done" in out.stdout
         cmd = __import__("json").loads((run / "config.json").read_text())["command"]
-        assert cmd.startswith("python -m acder_lite train --env FetchReach-v4") and f"--out {run}" in cmd
-    again = subprocess.run(_sweep_cmd(results, [0, 1], 2), cwd=tmp_path, env=_env(), capture_output=True,
-                           text=True, timeout=120)
+        assert (
+            cmd.startswith("python -m acder_lite train --env FetchReach-v4")
+            and f"--out {run}" in cmd
+        )
+    again = subprocess.run(
+        _sweep_cmd(results, [0, 1], 2),
+        cwd=tmp_path,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert again.returncode == 0 and "nothing to run: 2 skipped" in again.stdout
     assert again.stdout.count("(already complete)") == 2
 
 
-@pytest.mark.xdist_group("ray")  # one local Ray at a time: a busy machine starts them slowly
+@pytest.mark.xdist_group(
+    "ray"
+)  # one local Ray at a time: a busy machine starts them slowly
 def test_ray_retries_a_killed_worker_from_its_checkpoint(tmp_path):
-    """Kill the worker training a cell (its pid is in train.log): Ray's retry resumes it, and the
-    run ends with the same progress.csv as an uninterrupted run (but wall_s)."""
+    """Kill the worker training a cell (its pid is in train.log): Ray's retry resumes
+    it, and the run ends with the same progress.csv as an uninterrupted run (but
+    wall_s)."""
     results, epochs = tmp_path / "results", 6
     run = results / "FetchReach-v4" / "her" / "seed0"
-    proc = subprocess.Popen(_sweep_cmd(results, [0], epochs), cwd=tmp_path, env=_env(),
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = subprocess.Popen(
+        _sweep_cmd(results, [0], epochs),
+        cwd=tmp_path,
+        env=_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
-        _wait_for(lambda: _epochs_done(run) >= 2 and (run / "checkpoint.pt").exists(), proc, 300)
-        pid = int((run / "train.log").read_text().split(" sweep: pid ", 1)[1].split(":", 1)[0])
+        _wait_for(
+            lambda: _epochs_done(run) >= 2 and (run / "checkpoint.pt").exists(),
+            proc,
+            300,
+        )
+        pid = int(
+            (run / "train.log").read_text().split(" sweep: pid ", 1)[1].split(":", 1)[0]
+        )
         os.kill(pid, signal.SIGKILL)
         out, _ = proc.communicate(timeout=300)
     finally:
@@ -296,23 +562,55 @@ def test_ray_retries_a_killed_worker_from_its_checkpoint(tmp_path):
             proc.kill()
     assert proc.returncode == 0, out
     assert "finish FetchReach-v4/her/seed0: done" in out and "(attempts 2)" in out
-    starts = [line for line in (run / "train.log").read_text().splitlines() if " sweep: pid " in line]
+    starts = [
+        line
+        for line in (run / "train.log").read_text().splitlines()
+        if " sweep: pid " in line
+    ]
     assert len(starts) == 2 and "--out" in starts[0] and "--resume" in starts[1]
 
     ref = tmp_path / "ref"
-    argv = ["train", "--env", "FetchReach-v4", "--method", "her", "--seed", "0", "--out", str(ref),
-            "--epochs", str(epochs), "--threads", "1", "--quiet", *TINY.split()]
-    assert subprocess.run([sys.executable, "-m", "acder_lite", *argv], env=_env(), timeout=300).returncode == 0
+    argv = [
+        "train",
+        "--env",
+        "FetchReach-v4",
+        "--method",
+        "her",
+        "--seed",
+        "0",
+        "--out",
+        str(ref),
+        "--epochs",
+        str(epochs),
+        "--threads",
+        "1",
+        "--quiet",
+        *TINY.split(),
+    ]
+    assert (
+        subprocess.run(
+            [sys.executable, "-m", "acder_lite", *argv], env=_env(), timeout=300
+        ).returncode
+        == 0
+    )
     assert _rows(run) == _rows(ref) and len(_rows(run)) == epochs
 
 
-@pytest.mark.xdist_group("ray")  # one local Ray at a time: a busy machine starts them slowly
+@pytest.mark.xdist_group(
+    "ray"
+)  # one local Ray at a time: a busy machine starts them slowly
 def test_ray_ctrl_c_keeps_checkpoints_and_the_same_command_finishes(tmp_path):
     results = tmp_path / "results"
     run = results / "FetchReach-v4" / "her" / "seed0"
     cmd = _sweep_cmd(results, [0], 12)
-    proc = subprocess.Popen(cmd, cwd=tmp_path, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
+    proc = subprocess.Popen(
+        cmd,
+        cwd=tmp_path,
+        env=_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
         _wait_for(lambda: (run / "checkpoint.pt").exists(), proc, 300)
         proc.send_signal(signal.SIGINT)
@@ -322,7 +620,12 @@ def test_ray_ctrl_c_keeps_checkpoints_and_the_same_command_finishes(tmp_path):
             proc.kill()
     assert proc.returncode == 130, out
     assert (run / "checkpoint.pt").exists() and not (run / "done.json").exists()
-    out = subprocess.run(cmd, cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=400)
+    out = subprocess.run(
+        cmd, cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=400
+    )
     assert out.returncode == 0, out.stdout + out.stderr
-    assert "to resume" in out.stdout and "finish FetchReach-v4/her/seed0: done" in out.stdout
+    assert (
+        "to resume" in out.stdout
+        and "finish FetchReach-v4/her/seed0: done" in out.stdout
+    )
     assert len(_rows(run)) == 12

@@ -1,4 +1,6 @@
-"""Reading run folders (acder_lite.runs) and printing Table I (acder_lite.table), on synthetic runs."""
+"""Reading run folders (acder_lite.runs) and printing Table I (acder_lite.table),
+on synthetic runs."""
+
 import argparse
 import csv
 import json
@@ -9,9 +11,24 @@ from acder_lite import cli, report as RE, runs as RU, table as T
 from acder_lite.config import TASK_PRESETS
 
 
-def make_run(root, env, name, seed, success, *, epochs=10, cycles=50, workers=4, method=None,
-             config=True, done=None, command="python -m acder_lite train", name_dir=True):
-    """Write <root>/<env>/<name>/seed<k>/ with one evaluation per epoch; success = [per epoch].
+def make_run(
+    root,
+    env,
+    name,
+    seed,
+    success,
+    *,
+    epochs=10,
+    cycles=50,
+    workers=4,
+    method=None,
+    config=True,
+    done=None,
+    command="python -m acder_lite train",
+    name_dir=True,
+):
+    """Write <root>/<env>/<name>/seed<k>/ with one evaluation per epoch;
+    success = [per epoch].
 
     done: None (still training) or a stop_reason ("success held", "budget", ...)."""
     d = root / env / name / f"seed{seed}" if name_dir else root
@@ -19,17 +36,36 @@ def make_run(root, env, name, seed, success, *, epochs=10, cycles=50, workers=4,
     per_epoch = cycles * 2 * workers
     with open(d / "progress.csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["epoch", "cycle", "episodes", "env_steps", "test_success", "wall_s"])
+        w.writerow(
+            ["epoch", "cycle", "episodes", "env_steps", "test_success", "wall_s"]
+        )
         for i, s in enumerate(success, 1):
             w.writerow([i, i * cycles, i * per_epoch, i * per_epoch * 50, s, i * 10.0])
     if config:
-        cfg = dict(env=env, method=method or name, seed=seed, epochs=epochs, cycles=cycles,
-                   episodes_per_cycle=2, workers=workers)
-        (d / "config.json").write_text(json.dumps(dict(config=cfg, command=command, versions={})))
+        cfg = dict(
+            env=env,
+            method=method or name,
+            seed=seed,
+            epochs=epochs,
+            cycles=cycles,
+            episodes_per_cycle=2,
+            workers=workers,
+        )
+        (d / "config.json").write_text(
+            json.dumps(dict(config=cfg, command=command, versions={}))
+        )
     if done:
-        (d / "done.json").write_text(json.dumps(dict(
-            epochs=float(len(success)), episodes=len(success) * per_epoch, stop_reason=done,
-            stopped_early=len(success) < epochs, wall_s=1.0)))
+        (d / "done.json").write_text(
+            json.dumps(
+                dict(
+                    epochs=float(len(success)),
+                    episodes=len(success) * per_epoch,
+                    stop_reason=done,
+                    stopped_early=len(success) < epochs,
+                    wall_s=1.0,
+                )
+            )
+        )
     return d
 
 
@@ -38,17 +74,41 @@ P, R = "FetchPush-v4", "FetchReach-v4"
 
 @pytest.fixture
 def results(tmp_path):
-    make_run(tmp_path, P, "her", 0, [0.2, 0.6, 0.9, 1.0, 0.95, 0.95, 0.95, 0.95], done="success held")
-    make_run(tmp_path, P, "her", 1, [0.0, 0.1, 0.5, 0.7, 0.8, 0.9, 0.98, 1.0, 1.0, 1.0], done="budget")
-    make_run(tmp_path, P, "acder", 0, [0.5, 0.96, 0.96, 0.96, 0.96, 0.96], done="success held")
+    make_run(
+        tmp_path,
+        P,
+        "her",
+        0,
+        [0.2, 0.6, 0.9, 1.0, 0.95, 0.95, 0.95, 0.95],
+        done="success held",
+    )
+    make_run(
+        tmp_path,
+        P,
+        "her",
+        1,
+        [0.0, 0.1, 0.5, 0.7, 0.8, 0.9, 0.98, 1.0, 1.0, 1.0],
+        done="budget",
+    )
+    make_run(
+        tmp_path,
+        P,
+        "acder",
+        0,
+        [0.5, 0.96, 0.96, 0.96, 0.96, 0.96],
+        done="success held",
+    )
     # Reach: epochs of 10 cycles hold 80 episodes
     make_run(tmp_path, R, "her", 0, [0.5, 1.0, 1.0], epochs=3, cycles=10, done="budget")
     return tmp_path
 
 
 def test_episodes_to_threshold():
-    rows = [dict(episodes=40.0, test_success=0.5), dict(episodes=80.0, test_success=0.95),
-            dict(episodes=120.0, test_success=1.0)]
+    rows = [
+        dict(episodes=40.0, test_success=0.5),
+        dict(episodes=80.0, test_success=0.95),
+        dict(episodes=120.0, test_success=1.0),
+    ]
     assert T.episodes_to_threshold(rows, 0.95) == 80.0
     assert T.episodes_to_threshold(rows, 1.0) == 120.0
     assert T.episodes_to_threshold(rows[:2], 1.0) is None
@@ -56,10 +116,16 @@ def test_episodes_to_threshold():
 
 
 def test_paper_table_and_thresholds():
-    assert T.PAPER_TABLE_I["acder"] == {"FetchReach-v4": 400, "FetchPush-v4": 2200, "FetchPickAndPlace-v4": 5200}
+    assert T.PAPER_TABLE_I["acder"] == {
+        "FetchReach-v4": 400,
+        "FetchPush-v4": 2200,
+        "FetchPickAndPlace-v4": 5200,
+    }
     assert T.PAPER_TABLE_I["her-ebp"]["FetchReach-v4"] is None
     # one source of truth for the thresholds: the task presets
-    assert {e: T.threshold(e) for e in T.TASKS} == {e: TASK_PRESETS[e]["success_threshold"] for e in T.TASKS}
+    assert {e: T.threshold(e) for e in T.TASKS} == {
+        e: TASK_PRESETS[e]["success_threshold"] for e in T.TASKS
+    }
     assert T.METHOD_LABELS["her"] == "DDPG+HER" and T.TASK_LABELS[P] == "Push"
 
 
@@ -68,17 +134,28 @@ def test_load_runs(results):
     by = {(r["env"], r["name"], r["seed"]): r for r in runs}
     assert len(runs) == 4
     her = by[(P, "her", 1)]
-    assert (her["budget_epochs"], her["episodes_per_epoch"], her["budget"]) == (10.0, 400.0, 4000.0)
+    assert (her["budget_epochs"], her["episodes_per_epoch"], her["budget"]) == (
+        10.0,
+        400.0,
+        4000.0,
+    )
     assert her["ended"] == "budget" and her["done"] and len(her["rows"]) == 10
     assert by[(P, "her", 0)]["ended"] == "stop rule"
     assert by[(R, "her", 0)]["episodes_per_epoch"] == 80.0
 
 
 def test_runs_are_grouped_by_folder_not_method(tmp_path):
-    # a protocol-v1 run of the old method acder-baselines-clip: config upgraded, folder kept
-    d = make_run(tmp_path, P, "acder-baselines-clip", 0, [0.5, 1.0], epochs=2, done="budget")
+    # a protocol-v1 run of the old method acder-baselines-clip:
+    # config upgraded, folder kept
+    d = make_run(
+        tmp_path, P, "acder-baselines-clip", 0, [0.5, 1.0], epochs=2, done="budget"
+    )
     (run,) = RU.load_runs(tmp_path)
-    assert (run["name"], run["method"], run["config"]["target_clip"]) == ("acder-baselines-clip", "acder", "baselines")
+    assert (run["name"], run["method"], run["config"]["target_clip"]) == (
+        "acder-baselines-clip",
+        "acder",
+        "baselines",
+    )
     cells = T.summarize([run])
     assert [(c.name, c.method) for c in cells] == [("acder-baselines-clip", "acder")]
     assert "ACDER with Baselines' clip (protocol v1)" in T.markdown(cells)
@@ -88,35 +165,86 @@ def test_runs_are_grouped_by_folder_not_method(tmp_path):
 
 def test_planned_epochs():
     cfg = dict(epochs=18)
-    train = "python -m acder_lite train --env FetchPush-v4 --method her --seed 1 --out R"
-    ended = dict(command="python -m acder_lite train --resume R --epochs 18 --threads 1 --quiet")
+    train = (
+        "python -m acder_lite train --env FetchPush-v4 --method her --seed 1 --out R"
+    )
+    ended = dict(
+        command="python -m acder_lite train --resume R --epochs 18 --threads 1 --quiet"
+    )
     # ended at epoch 18 by a resume: the plan is the first command's --epochs
-    assert T.planned_epochs(dict(config=cfg, command=train + " --epochs 50", resumes=[ended])) == 50
+    assert (
+        T.planned_epochs(
+            dict(config=cfg, command=train + " --epochs 50", resumes=[ended])
+        )
+        == 50
+    )
     assert T.planned_epochs(dict(config=cfg, command=train + " --epochs=40")) == 40
-    assert T.planned_epochs(dict(config=cfg, command=train, resumes=[dict(command="x --threads 2")])) == 18
-    assert T.planned_epochs(dict(config=cfg, command=train + " --epochs-x 7 --out 'a --epochs 9'")) == 18
+    assert (
+        T.planned_epochs(
+            dict(config=cfg, command=train, resumes=[dict(command="x --threads 2")])
+        )
+        == 18
+    )
+    assert (
+        T.planned_epochs(
+            dict(config=cfg, command=train + " --epochs-x 7 --out 'a --epochs 9'")
+        )
+        == 18
+    )
 
 
 def test_how_ended(tmp_path):
-    make_run(tmp_path, P, "a", 0, [0.96] * 5, method="her", epochs=10, done="success held")
+    make_run(
+        tmp_path, P, "a", 0, [0.96] * 5, method="her", epochs=10, done="success held"
+    )
     make_run(tmp_path, P, "b", 0, [0.5] * 10, method="her", epochs=10, done="budget")
-    make_run(tmp_path, P, "c", 0, [0.96, 0.9, 0.9], method="her", epochs=10, done="gap after first success")
+    make_run(
+        tmp_path,
+        P,
+        "c",
+        0,
+        [0.96, 0.9, 0.9],
+        method="her",
+        epochs=10,
+        done="gap after first success",
+    )
     # ended by `train --resume DIR --epochs 3` before reaching the threshold
-    make_run(tmp_path, P, "d", 0, [0.5, 0.6, 0.7], method="her", epochs=3, done="budget", command="train --epochs 10")
+    make_run(
+        tmp_path,
+        P,
+        "d",
+        0,
+        [0.5, 0.6, 0.7],
+        method="her",
+        epochs=3,
+        done="budget",
+        command="train --epochs 10",
+    )
     make_run(tmp_path, P, "e", 0, [0.5], method="her", epochs=10)
     got = {r["name"]: (r["ended"], T.how_ended(r)) for r in T.load_runs(tmp_path)}
-    assert got == {"a": ("stop rule", "early stop"), "b": ("budget", "full budget"), "c": ("cut", "hovering"),
-                   "d": ("cut", "cut short"), "e": (None, None)}
+    assert got == {
+        "a": ("stop rule", "early stop"),
+        "b": ("budget", "full budget"),
+        "c": ("cut", "hovering"),
+        "d": ("cut", "cut short"),
+        "e": (None, None),
+    }
 
 
 def test_malformed_run_folders_are_skipped(results, capsys):
     bad = {
         "notjson": lambda d: (d / "config.json").write_text("{not json"),
         "noconfig": lambda d: (d / "config.json").unlink(),
-        "badvalue": lambda d: (d / "progress.csv").write_text("epoch,episodes,test_success\n1,400,abc\n"),
-        "nocolumn": lambda d: (d / "progress.csv").write_text("epoch,episodes\n1,400\n"),
+        "badvalue": lambda d: (d / "progress.csv").write_text(
+            "epoch,episodes,test_success\n1,400,abc\n"
+        ),
+        "nocolumn": lambda d: (d / "progress.csv").write_text(
+            "epoch,episodes\n1,400\n"
+        ),
         "noprogress": lambda d: (d / "progress.csv").unlink(),
-        "badfield": lambda d: (d / "config.json").write_text(json.dumps(dict(config=dict(env=P, method="her", bogus=1)))),
+        "badfield": lambda d: (d / "config.json").write_text(
+            json.dumps(dict(config=dict(env=P, method="her", bogus=1)))
+        ),
     }
     for name, spoil in bad.items():
         spoil(make_run(results, P, name, 0, [0.5, 0.6], method="her"))
@@ -124,24 +252,34 @@ def test_malformed_run_folders_are_skipped(results, capsys):
     assert len(runs) == 4  # the good ones are all read
     err = capsys.readouterr().err.splitlines()
     assert len(err) == len(bad)  # one line per bad folder, each naming it and why
-    for name, why in [("notjson", "not valid JSON"), ("noconfig", "no config.json"),
-                      ("badvalue", "test_success 'abc' is not a number"), ("nocolumn", "no 'test_success' column"),
-                      ("noprogress", "no progress.csv"), ("badfield", "unknown config field 'bogus'")]:
+    for name, why in [
+        ("notjson", "not valid JSON"),
+        ("noconfig", "no config.json"),
+        ("badvalue", "test_success 'abc' is not a number"),
+        ("nocolumn", "no 'test_success' column"),
+        ("noprogress", "no progress.csv"),
+        ("badfield", "unknown config field 'bogus'"),
+    ]:
         (line,) = [x for x in err if f"/{name}/seed0" in x]
         assert line.startswith("skipped ") and why in line
 
 
 def args(results, fmt="markdown", plan=None):
-    return argparse.Namespace(results=str(results), format=fmt, plan=plan, resamples=200)
+    return argparse.Namespace(
+        results=str(results), format=fmt, plan=plan, resamples=200
+    )
 
 
 def test_table_prints_every_cell_of_the_grid(results, capsys):
     assert T.run(args(results)) == 0
     out = capsys.readouterr().out
     rows = [line for line in out.splitlines() if line.startswith("| ")]
-    assert len(rows) == 1 + 23 + 4  # header, the grid's cells, the ratio table (header + 3 rows)
-    # Push HER: seed 0 carries 0.95 after epoch 8; mean (0.95 + 0.98) / 2 first >= 0.95 at epoch 7
-    # (interpolated from (0.95 + 0.9) / 2 = 0.925 at epoch 6: 6 + 0.025 / 0.04 = 6.625 -> 2,650 episodes)
+    assert (
+        len(rows) == 1 + 23 + 4
+    )  # header, the grid's cells, the ratio table (header + 3 rows)
+    # Push HER: seed 0 carries 0.95 after epoch 8; mean (0.95 + 0.98) / 2 first
+    # >= 0.95 at epoch 7 (interpolated from (0.95 + 0.9) / 2 = 0.925 at epoch 6:
+    # 6 + 0.025 / 0.04 = 6.625 -> 2,650 episodes)
     her = next(r for r in rows if r.startswith("| Push | DDPG+HER (`her`)"))
     assert "| 2 done | 2,650 |" in her and her.endswith("| 11,600 |")
     assert "| Reach | DDPG+HER (`her`) | 1 done | 800 (ours 160) |" in out
@@ -155,19 +293,27 @@ def test_table_prints_every_cell_of_the_grid(results, capsys):
 
 def test_table_counts_planned_seeds(results, capsys):
     (results / "plan.toml").write_text(
-        '[[group]]\nenvs = ["FetchPush-v4"]\nmethods = ["her"]\nseeds = [0, 1, 2, 3, 4]\n'
-        '[[group]]\nenvs = ["FetchPush-v4"]\nmethods = ["acder-no-curiosity"]\nseeds = [0, 1]\nhold = "readings"\n')
+        '[[group]]\nenvs = ["FetchPush-v4"]\nmethods = ["her"]\n'
+        "seeds = [0, 1, 2, 3, 4]\n"
+        '[[group]]\nenvs = ["FetchPush-v4"]\nmethods = ["acder-no-curiosity"]\n'
+        'seeds = [0, 1]\nhold = "readings"\n'
+    )
     assert T.run(args(results)) == 0
     out = capsys.readouterr().out
     assert "| Push | DDPG+HER (`her`) | 2 done / 5 planned |" in out
-    assert "| Push | ACDER w/o curiosity (`acder-no-curiosity`) | 0 done / 2 planned (on hold) | not run yet |" in out
+    assert (
+        "| Push | ACDER w/o curiosity (`acder-no-curiosity`) | 0 done / 2 planned (on "
+        "hold) | not run yet |" in out
+    )
 
 
 def test_table_json(results, capsys):
     assert T.run(args(results, "json")) == 0
     d = json.loads(capsys.readouterr().out)
     her = next(c for c in d["cells"] if (c["env"], c["name"]) == (P, "her"))
-    assert her["crossing"] == pytest.approx(6.625) and her["crossing_episodes_paper_units"] == pytest.approx(2650)
+    assert her["crossing"] == pytest.approx(6.625) and her[
+        "crossing_episodes_paper_units"
+    ] == pytest.approx(2650)
     assert [r["env"] for r in d["ratios"]] == list(T.TASKS)
 
 
@@ -176,34 +322,63 @@ def test_table_exits_2_when_nothing_is_readable(tmp_path, capsys):
     broken = tmp_path / "broken"
     make_run(broken, P, "her", 0, [0.5])
     (broken / P / "her" / "seed0" / "config.json").write_text("[]")
-    for root, why in [(tmp_path / "empty", "no readable run"), (tmp_path / "missing", "does not exist"),
-                      (broken, "config.json is not a JSON object")]:
+    for root, why in [
+        (tmp_path / "empty", "no readable run"),
+        (tmp_path / "missing", "does not exist"),
+        (broken, "config.json is not a JSON object"),
+    ]:
         assert cli.main(["table", "--results", str(root)]) == 2
         cap = capsys.readouterr()
-        assert cap.out == "" and cap.err.count("\n") == 1 and str(root) in cap.err and why in cap.err
+        assert (
+            cap.out == ""
+            and cap.err.count("\n") == 1
+            and str(root) in cap.err
+            and why in cap.err
+        )
 
 
 def test_html_table(results):
     cells = T.summarize(T.load_runs(results), n_boot=100)
     html = T.to_html(*T.table_rows(cells))
-    assert html.startswith("<table><thead><tr><th>Task</th>") and "<code>her</code>" in html
+    assert (
+        html.startswith("<table><thead><tr><th>Task</th>")
+        and "<code>her</code>" in html
+    )
     assert "|" not in html
 
 
 def cell(name, values, env=P, ended="budget"):
-    rows = [dict(epoch=float(i), episodes=400.0 * i, test_success=v) for i, v in enumerate(values, 1)]
-    r = dict(env=env, name=name, method=name, seed=0, rows=rows, ended=ended, budget_epochs=float(len(values)),
-             episodes_per_epoch=400.0, update_dtype="float32")
+    rows = [
+        dict(epoch=float(i), episodes=400.0 * i, test_success=v)
+        for i, v in enumerate(values, 1)
+    ]
+    r = dict(
+        env=env,
+        name=name,
+        method=name,
+        seed=0,
+        rows=rows,
+        ended=ended,
+        budget_epochs=float(len(values)),
+        episodes_per_epoch=400.0,
+        update_dtype="float32",
+    )
     return RE.cell_stat(env, name, [r, dict(r, seed=1)], n_boot=100)
 
 
 def test_sentences_for_the_book():
-    her, acder = cell("her", [0.0, 0.5, 1.0, 1.0]), cell("acder", [0.5, 1.0, 1.0, 1.0])  # 2.9 and 1.9 epochs (2 + 0.45 / 0.5, 1 + 0.45 / 0.5)
+    her, acder = (
+        cell("her", [0.0, 0.5, 1.0, 1.0]),
+        cell("acder", [0.5, 1.0, 1.0, 1.0]),
+    )  # 2.9 and 1.9 epochs (2 + 0.45 / 0.5, 1 + 0.45 / 0.5)
     slow = cell("acder-no-curiosity", [0.0, 0.0, 0.5, 1.0])  # 3.9: slower than HER too
     fast = cell("acder-no-start-states", [1.0] * 4)  # 1.0: faster than full ACDER
     cells = [her, acder, slow, fast, RE.cell_stat(P, "acder-no-goal-factor", [])]
     s = T.ablation_sentence(cells, P)
-    assert "ACDER w/o start states 400 < DDPG+ACDER 760 < DDPG+HER 1,160 < ACDER w/o curiosity 1,560" in s
+    assert (
+        "ACDER w/o start states 400 < DDPG+ACDER 760 < DDPG+HER 1,160 < ACDER w/o "
+        "curiosity 1,560" in s
+    )
     assert "not run yet: ACDER w/o goal factor" in s
     assert "Slower than full ACDER, as in the paper: ACDER w/o curiosity" in s
     assert "as fast or faster, unlike the paper: ACDER w/o start states" in s
@@ -211,6 +386,9 @@ def test_sentences_for_the_book():
     (r,) = T.ratios([her, acder], tasks=(P,))
     assert r.ours == pytest.approx(2.9 / 1.9)
     v = T.verdict([r])
-    assert "above our 95% interval on Push (5.3 against our 1.5)" in v and "does not reproduce" in v
+    assert (
+        "above our 95% interval on Push (5.3 against our 1.5)" in v
+        and "does not reproduce" in v
+    )
     assert "cannot say yet" in T.verdict(T.ratios([her], tasks=(P,)))
     assert T.sentence(["on Push a", "b"]) == "On Push a; b."

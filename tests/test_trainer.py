@@ -15,27 +15,47 @@ WALL = {"wall_s"}
 
 def rows_of(path):
     with open(path) as f:
-        return [{k: v for k, v in r.items() if k not in WALL} for r in csv.DictReader(f)]
+        return [
+            {k: v for k, v in r.items() if k not in WALL} for r in csv.DictReader(f)
+        ]
 
 
 def test_same_seed_same_progress(tmp_path):
     for name in ("a", "b"):
-        Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=2), str(tmp_path / name)).train(False)
-    a, b = rows_of(tmp_path / "a" / "progress.csv"), rows_of(tmp_path / "b" / "progress.csv")
+        Trainer(
+            tiny_config(method="acder", env="FetchPush-v4", epochs=2),
+            str(tmp_path / name),
+        ).train(False)
+    a, b = (
+        rows_of(tmp_path / "a" / "progress.csv"),
+        rows_of(tmp_path / "b" / "progress.csv"),
+    )
     assert len(a) == 2 and a == b
     c = tmp_path / "c"
-    Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=2, seed=1), str(c)).train(False)
+    Trainer(
+        tiny_config(method="acder", env="FetchPush-v4", epochs=2, seed=1), str(c)
+    ).train(False)
     assert rows_of(c / "progress.csv") != a
 
 
 def test_bfloat16_same_seed_same_progress(tmp_path):
     for name in ("a", "b"):
-        Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=2, update_dtype="bfloat16"),
-                str(tmp_path / name)).train(False)
-    a, b = rows_of(tmp_path / "a" / "progress.csv"), rows_of(tmp_path / "b" / "progress.csv")
+        Trainer(
+            tiny_config(
+                method="acder", env="FetchPush-v4", epochs=2, update_dtype="bfloat16"
+            ),
+            str(tmp_path / name),
+        ).train(False)
+    a, b = (
+        rows_of(tmp_path / "a" / "progress.csv"),
+        rows_of(tmp_path / "b" / "progress.csv"),
+    )
     assert len(a) == 2 and a == b
-    Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=2), str(tmp_path / "f")).train(False)
-    assert rows_of(tmp_path / "f" / "progress.csv") != a  # float32 is another computation
+    Trainer(
+        tiny_config(method="acder", env="FetchPush-v4", epochs=2), str(tmp_path / "f")
+    ).train(False)
+    # float32 is another computation
+    assert rows_of(tmp_path / "f" / "progress.csv") != a
 
 
 @pytest.mark.parametrize("method", ["her", "acder", "her-per"])
@@ -47,6 +67,7 @@ def test_resumed_run_equals_uninterrupted(tmp_path, method):
     Trainer(tiny_config(epochs=4, **kw), str(part)).train(False, max_cycles=2 * 3)
     assert not (part / "done.json").exists()
     from acder_lite.io import load_torch
+
     ckpt = load_torch(str(part / "checkpoint.pt"))
     cfg = tiny_config(epochs=4, **kw)
     tr = Trainer(cfg, str(part))
@@ -59,25 +80,37 @@ def test_checkpoint_holds_buffer_and_rng(tmp_path):
     tr = Trainer(tiny_config(epochs=1), str(tmp_path))
     tr.train(False)
     from acder_lite.io import load_torch
+
     ck = load_torch(str(tmp_path / "checkpoint.pt"))
     assert ck["buffer"]["n"] == tr.buffer.n == 3 * 2
     np.testing.assert_array_equal(ck["buffer"]["state"], tr.buffer.state[: tr.buffer.n])
     assert set(ck["rng"]) == {"numpy", "torch", "envs", "test_envs"}
-    assert os.path.getsize(tmp_path / "policy.pt") < os.path.getsize(tmp_path / "checkpoint.pt")
+    assert os.path.getsize(tmp_path / "policy.pt") < os.path.getsize(
+        tmp_path / "checkpoint.pt"
+    )
 
 
 @pytest.mark.parametrize("method", sorted(m for m in METHODS if m != "her-ebp"))
 def test_every_method_runs_and_logs_its_diagnostics(tmp_path, method):
-    tr = Trainer(tiny_config(method=method, env="FetchPush-v4", epochs=1), str(tmp_path))
+    tr = Trainer(
+        tiny_config(method=method, env="FetchPush-v4", epochs=1), str(tmp_path)
+    )
     rows = tr.train(False)
     header = open(tmp_path / "progress.csv").readline().strip().split(",")
-    assert header[:6] == ["epoch", "cycle", "episodes", "env_steps", "test_success", "train_success"]
+    assert header[:6] == [
+        "epoch",
+        "cycle",
+        "episodes",
+        "env_steps",
+        "test_success",
+        "train_success",
+    ]
     sw = METHODS[method]
     assert ("r_int_mean" in header) == (sw["curiosity"] != "none")
     assert ("alpha" in header) == sw["start_states"]
     assert ("lambda_mean" in header) == sw["goal_factor"]
     if sw["curiosity"] != "none":
-        assert 0 < rows[-1]["r_int_mean"] <= tr.cfg.eta + 1e-6   # float32 clip
+        assert 0 < rows[-1]["r_int_mean"] <= tr.cfg.eta + 1e-6  # float32 clip
     if sw["goal_factor"]:
         assert 1.0 <= rows[-1]["lambda_mean"] <= 1.5
 
@@ -88,52 +121,77 @@ def test_ebp_on_push_and_clip_range():
     assert tr.ebp is not None
     assert tr.clip_return == pytest.approx((-50.0, 0.0))
     acder = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1))
-    assert acder.clip_return == pytest.approx((-50.0, 0.0))   # protocol v2: Baselines' clip for every method
-    wide = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1, target_clip="wide"))
+    # protocol v2: Baselines' clip for every method
+    assert acder.clip_return == pytest.approx((-50.0, 0.0))
+    wide = Trainer(
+        tiny_config(method="acder", env="FetchPush-v4", epochs=1, target_clip="wide")
+    )
     assert wide.clip_return == pytest.approx((-1.5 / 0.02, 0.8 / 0.02))
 
 
-@pytest.mark.parametrize("method, expected", [
-    ("her", (-50.0, 0.0)),                      # rewards in {-1, 0}
-    ("acder", (-75.0, 40.0)),                   # lambda * r_her in [-1.5, 0], r_i in [0, 0.8]
-    ("acder-no-goal-factor", (-50.0, 40.0)),
-    ("acder-no-curiosity", (-75.0, 0.0)),
-    ("her-icm", (-50.0, 40.0)),
-])
+@pytest.mark.parametrize(
+    "method, expected",
+    [
+        # rewards in {-1, 0}
+        ("her", (-50.0, 0.0)),
+        # lambda * r_her in [-1.5, 0], r_i in [0, 0.8]
+        ("acder", (-75.0, 40.0)),
+        ("acder-no-goal-factor", (-50.0, 40.0)),
+        ("acder-no-curiosity", (-75.0, 0.0)),
+        ("her-icm", (-50.0, 40.0)),
+    ],
+)
 def test_target_clip_by_hand(method, expected):
-    """The wide clip: the range the method's rewards can reach over 1 - gamma; gamma = 0.98, so
-    1 / (1 - gamma) = 50; eta = 0.8 (Push). Baselines' clip is [-50, 0] whatever the rewards."""
+    """The wide clip: the range the method's rewards can reach over 1 - gamma;
+    gamma = 0.98, so 1 / (1 - gamma) = 50; eta = 0.8 (Push). Baselines' clip is
+    [-50, 0] whatever the rewards."""
     assert target_clip("wide", METHODS[method], 0.8, 0.98) == pytest.approx(expected)
-    assert target_clip("baselines", METHODS[method], 0.8, 0.98) == pytest.approx((-50.0, 0.0))
+    assert target_clip("baselines", METHODS[method], 0.8, 0.98) == pytest.approx(
+        (-50.0, 0.0)
+    )
 
 
 def test_baselines_clip_caps_the_critics_target_at_zero():
-    tr = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1))  # target_clip="baselines", the default
+    # target_clip="baselines", the default
+    tr = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1))
     tr.train(False)
     assert tr.clip_return == pytest.approx((-50.0, 0.0))
     batch = tr.sample_batch()
     tb = tr.batch_tensors(batch)
     tb["r"] = tr.rewards(batch, tb)
-    assert float(tb["r"].max()) > 0          # curiosity still pays where r_her = 0 ...
+    assert float(tb["r"].max()) > 0  # curiosity still pays where r_her = 0 ...
     from acder_lite.ddpg import compute_loss_q
     import torch
+
     with torch.no_grad():
         q_next = tr.agent.critic_targ(tb["x2"], tr.agent.actor_targ(tb["x2"]))
-    _, td = compute_loss_q(tr.agent.critic, tr.agent.actor_targ, tr.agent.critic_targ, tb, tr.cfg.gamma,
-                           tr.clip_return)
+    _, td = compute_loss_q(
+        tr.agent.critic,
+        tr.agent.actor_targ,
+        tr.agent.critic_targ,
+        tb,
+        tr.cfg.gamma,
+        tr.clip_return,
+    )
     with torch.no_grad():
         y = td + tr.agent.critic(tb["x"], tb["u"])
-    assert float(y.max()) <= 1e-6              # ... but no target y exceeds 0
-    np.testing.assert_allclose(y.numpy(), (tb["r"] + 0.98 * q_next).clamp(-50, 0).numpy(), atol=1e-5)
+    assert float(y.max()) <= 1e-6  # ... but no target y exceeds 0
+    np.testing.assert_allclose(
+        y.numpy(), (tb["r"] + 0.98 * q_next).clamp(-50, 0).numpy(), atol=1e-5
+    )
 
 
-@pytest.mark.parametrize("method", sorted(m for m, sw in METHODS.items() if sw["start_states"]))
+@pytest.mark.parametrize(
+    "method", sorted(m for m, sw in METHODS.items() if sw["start_states"])
+)
 def test_start_states_are_used(method):
-    """Once the pool holds candidates, episodes restart from stored states: in every method that
-    has start states, the ablation without curiosity included (its S-ICM still ranks them).
+    """Once the pool holds candidates, episodes restart from stored states: in every
+    method that has start states, the ablation without curiosity included (its S-ICM
+    still ranks them).
 
-    A lenient Reach (success within 15 cm instead of 5, for rewards and success alike) so that
-    successful episodes, the only source of candidates, come within 24 untrained episodes."""
+    A lenient Reach (success within 15 cm instead of 5, for rewards and success alike)
+    so that successful episodes, the only source of candidates, come within 24 untrained
+    episodes."""
     tr = Trainer(tiny_config(method=method, env="FetchReach-v4", epochs=3, cycles=4))
     for env in tr.envs:  # tr.reward_fn is envs[0]'s compute_reward: it follows
         env.distance_threshold = 0.15
@@ -149,44 +207,80 @@ def test_no_curiosity_keeps_r_int_out_of_the_reward():
     batch = tr.sample_batch()
     before = [p.detach().clone() for p in tr.curiosity.parameters()]
     r = tr.rewards(batch, tr.batch_tensors(batch)).numpy()
-    want, lam = shaped_reward(batch["r"], batch["her"], batch["o"][:, :3], batch["g"], batch["u"])  # no r_int
+    # no r_int
+    want, lam = shaped_reward(
+        batch["r"], batch["her"], batch["o"][:, :3], batch["g"], batch["u"]
+    )
     assert (lam > 1).any()  # the goal factor is on
     np.testing.assert_allclose(r, want, rtol=1e-6)
     # ... while S-ICM still trains on the minibatch (it ranks the start states)
-    assert any(not bool((a == b).all()) for a, b in zip(before, tr.curiosity.parameters()))
+    assert any(
+        not bool((a == b).all()) for a, b in zip(before, tr.curiosity.parameters())
+    )
 
 
-@pytest.mark.parametrize("gap,script,reason,episodes", [
-    (7, [0.5, 0.96] + [0.9] * 30, "gap after first success", 12),  # first 0.95 at 4 episodes; epoch 2 ends at 12
-    (0, [0.5, 0.96] + [0.9] * 30, "budget", 30),                    # the gap rule off: the whole budget
-    (7, [0.5, 0.96, 0.97] + [0.9] * 30, "success held", 6),         # held for stop_patience=2 first
-])
+@pytest.mark.parametrize(
+    "gap,script,reason,episodes",
+    [
+        # first 0.95 at 4 episodes; epoch 2 ends at 12
+        (7, [0.5, 0.96] + [0.9] * 30, "gap after first success", 12),
+        # the gap rule off: the whole budget
+        (0, [0.5, 0.96] + [0.9] * 30, "budget", 30),
+        # held for stop_patience=2 first
+        (7, [0.5, 0.96, 0.97] + [0.9] * 30, "success held", 6),
+    ],
+)
 def test_stop_reasons(tmp_path, gap, script, reason, episodes):
     import json
     from acder_lite import table as T
-    cfg = tiny_config(epochs=5, eval_every_cycles=1, success_threshold=0.95, stop_patience=2,
-                      stop_gap_episodes=gap)
+
+    cfg = tiny_config(
+        epochs=5,
+        eval_every_cycles=1,
+        success_threshold=0.95,
+        stop_patience=2,
+        stop_gap_episodes=gap,
+    )
     tr = Trainer(cfg, str(tmp_path / "run"))
     scripted = iter(script)
-    tr.evaluate = lambda: next(scripted)  # test success by script; training itself runs as usual
+    # test success by script; training itself runs as usual
+    tr.evaluate = lambda: next(scripted)
     tr.train(False)
     done = json.loads((tmp_path / "run" / "done.json").read_text())
     assert (done["stop_reason"], done["episodes"]) == (reason, episodes)
     assert done["stopped_early"] == (reason != "budget")
     (run,) = T.load_runs(tmp_path)
-    assert T.how_ended(run) == {"gap after first success": "hovering", "budget": "full budget",
-                                "success held": "early stop"}[reason]
+    assert (
+        T.how_ended(run)
+        == {
+            "gap after first success": "hovering",
+            "budget": "full budget",
+            "success held": "early stop",
+        }[reason]
+    )
 
 
-@pytest.mark.parametrize("method, sicm_input", [
-    ("acder", "normalised"), ("acder", "raw"), ("acder-no-goal-factor", "normalised"),
-    ("acder-no-curiosity", "normalised"), ("her-icm", "normalised"),
-])
-def test_the_reward_is_shaped_reward_plus_eq4_of_the_curiositys_prediction(method, sicm_input):
-    """On a fixed minibatch: Eq. 4 by hand of what the curiosity module predicts before its step
-    (S-ICM: s' from s and a; ICM: phi(s') from phi(s) and a), then rewards.shaped_reward."""
+@pytest.mark.parametrize(
+    "method, sicm_input",
+    [
+        ("acder", "normalised"),
+        ("acder", "raw"),
+        ("acder-no-goal-factor", "normalised"),
+        ("acder-no-curiosity", "normalised"),
+        ("her-icm", "normalised"),
+    ],
+)
+def test_the_reward_is_shaped_reward_plus_eq4_of_the_curiositys_prediction(
+    method, sicm_input
+):
+    """On a fixed minibatch: Eq. 4 by hand of what the curiosity module predicts before
+    its step (S-ICM: s' from s and a; ICM: phi(s') from phi(s) and a), then
+    rewards.shaped_reward."""
     import torch
-    tr = Trainer(tiny_config(method=method, env="FetchPush-v4", epochs=1, sicm_input=sicm_input))
+
+    tr = Trainer(
+        tiny_config(method=method, env="FetchPush-v4", epochs=1, sicm_input=sicm_input)
+    )
     tr.train(False)
     batch = tr.sample_batch()
     tb = tr.batch_tensors(batch)
@@ -194,13 +288,25 @@ def test_the_reward_is_shaped_reward_plus_eq4_of_the_curiositys_prediction(metho
     with torch.no_grad():
         if method == "her-icm":
             m = tr.curiosity
-            pred, target = m.forward_model(torch.cat([m.phi(s), tb["u"]], -1)), m.phi(s2)
+            pred, target = (
+                m.forward_model(torch.cat([m.phi(s), tb["u"]], -1)),
+                m.phi(s2),
+            )
         else:
             pred, target = tr.curiosity(s, tb["u"]), s2
-    r_int = np.clip(0.5 * ((pred - target) ** 2).sum(-1).numpy().astype(np.float64), 0, tr.cfg.eta)
+    r_int = np.clip(
+        0.5 * ((pred - target) ** 2).sum(-1).numpy().astype(np.float64), 0, tr.cfg.eta
+    )
     sw = tr.cfg.switches
-    want, _ = shaped_reward(batch["r"], batch["her"], batch["o"][:, :3], batch["g"], batch["u"],
-                            r_int.astype(np.float32) if sw["curiosity_reward"] else None, sw["goal_factor"])
+    want, _ = shaped_reward(
+        batch["r"],
+        batch["her"],
+        batch["o"][:, :3],
+        batch["g"],
+        batch["u"],
+        r_int.astype(np.float32) if sw["curiosity_reward"] else None,
+        sw["goal_factor"],
+    )
     r = tr.rewards(batch, tb).numpy()
     np.testing.assert_allclose(r, want, rtol=1e-5, atol=1e-6)
     if sw["curiosity_reward"]:
@@ -208,11 +314,16 @@ def test_the_reward_is_shaped_reward_plus_eq4_of_the_curiositys_prediction(metho
 
 
 def test_curiosity_inputs_normalised_or_raw():
-    """S-ICM sees the policy's normalised (o, g) by default; 'raw' gives (o, g) clipped to
-    clip_obs only, with the goal of the row in s and s' alike."""
+    """S-ICM sees the policy's normalised (o, g) by default; 'raw' gives (o, g) clipped
+    to clip_obs only, with the goal of the row in s and s' alike."""
     import torch
-    runs = {k: Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1, sicm_input=k))
-            for k in ("normalised", "raw")}
+
+    runs = {
+        k: Trainer(
+            tiny_config(method="acder", env="FetchPush-v4", epochs=1, sicm_input=k)
+        )
+        for k in ("normalised", "raw")
+    }
     for tr in runs.values():
         tr.train(False)
     tr = runs["normalised"]
@@ -222,13 +333,21 @@ def test_curiosity_inputs_normalised_or_raw():
     assert s is tb["x"] and s2 is tb["x2"]
     o_n = tr.o_norm.normalize(np.clip(batch["o"], -200, 200))
     g_n = tr.g_norm.normalize(np.clip(batch["g"], -200, 200))
-    np.testing.assert_allclose(s.numpy(), np.concatenate([o_n, g_n], 1), rtol=1e-4, atol=1e-4)
+    np.testing.assert_allclose(
+        s.numpy(), np.concatenate([o_n, g_n], 1), rtol=1e-4, atol=1e-4
+    )
     tr = runs["raw"]
     batch = tr.sample_batch()
     s, s2 = tr.curiosity_inputs(batch, tr.batch_tensors(batch))
-    np.testing.assert_allclose(s.numpy(), np.concatenate([batch["o"], batch["g"]], 1), rtol=1e-6)
-    np.testing.assert_allclose(s2.numpy(), np.concatenate([batch["o2"], batch["g"]], 1), rtol=1e-6)
-    assert s.dtype == torch.float32 and not np.allclose(s.numpy(), tr.batch_tensors(batch)["x"].numpy())
-    batch["o"] = batch["o"] + 1e3     # beyond clip_obs = 200: clipped, not normalised
+    np.testing.assert_allclose(
+        s.numpy(), np.concatenate([batch["o"], batch["g"]], 1), rtol=1e-6
+    )
+    np.testing.assert_allclose(
+        s2.numpy(), np.concatenate([batch["o2"], batch["g"]], 1), rtol=1e-6
+    )
+    assert s.dtype == torch.float32 and not np.allclose(
+        s.numpy(), tr.batch_tensors(batch)["x"].numpy()
+    )
+    batch["o"] = batch["o"] + 1e3  # beyond clip_obs = 200: clipped, not normalised
     s, _ = tr.curiosity_inputs(batch, tr.batch_tensors(batch))
     assert float(s[:, : tr.dims["o"]].max()) == 200.0

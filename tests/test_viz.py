@@ -1,4 +1,6 @@
-"""The Meshcat scene is built from the MuJoCo model and saved as a page that needs no network."""
+"""The Meshcat scene is built from the MuJoCo model and saved as a page that
+needs no network."""
+
 import re
 
 import numpy as np
@@ -11,10 +13,10 @@ from acder_lite import viz
 def test_scene_from_a_short_rollout(tmp_path):
     env = E.make_env("FetchPush-v4", seed=0)
     rec = viz.record_rollout(env, policy=None, steps=6, seed=0, every=2)
-    assert rec.n_frames == 4                                   # steps 0, 2, 4, 6
-    assert rec.episode["state"].shape[0] == 7                   # T+1 states of the rollout
+    assert rec.n_frames == 4  # steps 0, 2, 4, 6
+    assert rec.episode["state"].shape[0] == 7  # T+1 states of the rollout
     geoms = viz.visible_geoms(env.model)
-    assert len(geoms) >= 20                                    # the robot's meshes, table, object
+    assert len(geoms) >= 20  # the robot's meshes, table, object
     vis = viz.scene_from_recording(rec)
     try:
         size = viz.save_scene_html(vis, str(tmp_path / "scene.html"))
@@ -24,11 +26,17 @@ def test_scene_from_a_short_rollout(tmp_path):
     assert 1e5 < size < 2e6
     assert not re.search(r"<script[^>]+src=[\"']https?://", html)
     assert not list(tmp_path.glob("*.tmp"))
-    assert [p for p in viz.scene_objects(html) if "target" in p] == ["/meshcat/fetch/target"]  # one goal, one marker
+    assert [p for p in viz.scene_objects(html) if "target" in p] == [
+        "/meshcat/fetch/target"
+    ]  # one goal, one marker
 
 
 def _material_color(html: str, path: str) -> int:
-    (cmd,) = [c for c in viz.scene_commands(html) if c.get("type") == "set_object" and c["path"] == path]
+    (cmd,) = [
+        c
+        for c in viz.scene_commands(html)
+        if c.get("type") == "set_object" and c["path"] == path
+    ]
     return cmd["object"]["materials"][0]["color"]
 
 
@@ -42,6 +50,7 @@ def test_push_scene_keeps_its_one_target():
 def test_multistep_scene_draws_both_blocks_and_both_targets(tmp_path):
     import mujoco
     from acder_lite import multistep as M
+
     env = E.make_env(M.ENV_ID, seed=1)
     rec = viz.record_rollout(env, policy=None, steps=4, seed=1, every=2)
     assert rec.goal.shape == (3, 6)
@@ -54,15 +63,22 @@ def test_multistep_scene_draws_both_blocks_and_both_targets(tmp_path):
     html = (tmp_path / "multi.html").read_text()
     objects = viz.scene_objects(html)
     targets = sorted(p for p in objects if p.rsplit("/", 1)[-1].startswith("target"))
-    assert targets == ["/meshcat/fetch/target0", "/meshcat/fetch/target1"]   # two target markers
+    assert targets == [
+        "/meshcat/fetch/target0",
+        "/meshcat/fetch/target1",
+    ]  # two target markers
     m = env.model
-    for i, site in enumerate(M.TARGETS):   # each in its site's colour (red, blue)
+    for i, site in enumerate(M.TARGETS):  # each in its site's colour (red, blue)
         sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site)
-        assert _material_color(html, f"/meshcat/fetch/target{i}") == viz._color(m.site_rgba[sid])
-    for name in M.OBJECTS:                 # both blocks drawn, coloured as the XML colours them
+        assert _material_color(html, f"/meshcat/fetch/target{i}") == viz._color(
+            m.site_rgba[sid]
+        )
+    for name in M.OBJECTS:  # both blocks drawn, coloured as the XML colours them
         gid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name)
         assert gid in viz.visible_geoms(m)
-        assert _material_color(html, f"/meshcat/fetch/geom{gid}") == viz._color(viz._rgba(m, gid))
+        assert _material_color(html, f"/meshcat/fetch/geom{gid}") == viz._color(
+            viz._rgba(m, gid)
+        )
     blue = [float(x) for x in M.OBJECT1_RGBA.split()]
     gid1 = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "object1")
     assert _material_color(html, f"/meshcat/fetch/geom{gid1}") == viz._color(blue)
@@ -81,7 +97,39 @@ def test_record_states_takes_one_goal_or_one_per_frame():
 
 def test_show_scene_frames_the_book_path_and_labs_file_server():
     from acder_lite.viz import show_scene
-    a, b = show_scene("01_push_random", height=300).data, show_scene("01_push_random").data
+
+    a, b = (
+        show_scene("01_push_random", height=300).data,
+        show_scene("01_push_random").data,
+    )
     assert 'src="../_static/scenes/01_push_random.html"' in a and 'height="300"' in a
-    assert '"/files/book/_static/scenes/01_push_random.html"' in a and 'indexOf("/lab/")' in a
-    assert a.split('id="')[1].split('"')[0] != b.split('id="')[1].split('"')[0]  # one id a frame
+    assert (
+        '"/files/book/_static/scenes/01_push_random.html"' in a
+        and 'indexOf("/lab/")' in a
+    )
+    assert (
+        a.split('id="')[1].split('"')[0] != b.split('id="')[1].split('"')[0]
+    )  # one id a frame
+
+
+def test_seed_crossings_reads_each_seeds_first_crossing():
+    from acder_lite.book_utils import seed_crossings
+
+    def run(seed, values, name="her", env="FetchPush-v4"):
+        rows = [
+            dict(episodes=400.0 * k, test_success=v) for k, v in enumerate(values, 1)
+        ]
+        return dict(env=env, name=name, seed=seed, rows=rows)
+
+    runs = [
+        run(1, [0.2, 0.96, 0.5]),
+        run(0, [0.1, 0.3]),
+        run(2, [1.0], name="acder"),
+        run(3, [1.0], env="FetchReach-v4"),
+        dict(env="FetchPush-v4", name="her", seed=4, rows=[]),
+    ]
+    out = seed_crossings(runs, "FetchPush-v4", "her", 0.95)
+    assert [s["seed"] for s in out] == [0, 1]
+    assert out[0] == dict(seed=0, hit=None, best=0.3, episodes=800.0)
+    assert out[1] == dict(seed=1, hit=800.0, best=0.96, episodes=1200.0)
+    assert seed_crossings(runs, "FetchPush-v4", "her-per", 0.95) == []

@@ -1,0 +1,702 @@
+"""robust: a policy's success under what a real arm brings, a bench for the robot
+
+`python -m acder_lite robust results/FetchPush-v4/acder/seed0` evaluates the run's
+policy over N trials (default 20, the paper's count) at a tolerance (default 0.05 m),
+once per level of each perturbation below with the others at their nominal level, and
+prints the success counts out of N. Paper, section V-E: the policies, retrained on the
+simplified state (`train --obs simplified`), succeed in 19 / 16 / 17 of 20 trials on a
+UR5 (Reach / Push / Pick&Place) "with 5 cm tolerance error".
+
+**Success** of a trial: at its last step every block (Reach: the gripper) is within
+`tolerance` of its own target (Euclidean distance < tolerance: the env's own rule at
+0.05 m), measured on the true positions, whatever the policy was shown.
+
+**The knobs** (`KNOBS`; `--perturb NAME=L1,L2,...` picks knobs and levels; default:
+every knob that applies to the task, at `Knob.levels`):
+
+- `obs_noise` (m): the camera's error on each block's position. Every step each block
+  gets a fresh draw n_t ~ N(0, s^2 I_3), independent across steps, blocks and trials,
+  and every entry the robot would compute from that measurement carries it:
+  object_pos + n_t and object_rel_pos + n_t (the gripper's position comes from the
+  arm's joint encoders and stays exact), and, for a full-state policy,
+  object_velp + (n_t - n_{t-1}): Fetch's object_velp is the block's displacement in one
+  step relative to the gripper's, which a robot gets as the difference of two camera
+  frames (n_{-1} is drawn like the others). Rotations and angular velocities stay exact:
+  a colour-blob camera gives none, so a full-state policy is flattered here (and could
+  not run on the paper's robot at all). Reach has no block: the knob does not apply.
+- `goal_noise` (m): the camera's error on the target(s) (the paper's goals also come
+  from colour recognition): every step the goal the policy sees is the true one
+  + N(0, s^2 I); success is judged on the true goal.
+- `action_delay` (steps): the action computed from the observation of step t is applied
+  at step t + d; the first d steps apply the zero action (Fetch's action is a
+  displacement, so the arm holds still and the fingers keep their position).
+- `action_scale` (factor): the arm moves `scale` x the commanded end-effector
+  displacement (the first three action components; the gripper command is not scaled);
+  then the env's clip to [-1, 1] applies, so above 1 it saturates at the controller's
+  5 cm a step.
+- `friction` (factor): the sliding friction of the table top and of every block x scale.
+  Trap: MuJoCo gives a contact the larger of its two geoms' coefficients, so scaling the
+  table alone would not lower the block-table friction; with both scaled it is exactly
+  scale x 1.0. The finger-block contact (fingers at 1.0) is unchanged below 1 and scaled
+  above.
+- `mass` (factor): every block's mass and inertia x scale (the same shape in a denser
+  material); `mj_setConst` then recomputes what MuJoCo derives from them. Reach: does
+  not apply.
+
+Every model field a knob changes, and every one `mj_setConst` derives, is restored bit
+for bit after its level (`scaled_model`): the env then steps as a freshly made one.
+
+**Determinism.** Trial i runs in its own env, seeded `seed + i`; before every level each
+env's physics state and random generator are put back to what they were after seeding,
+so every level sees the same initial positions and goals; the noise comes from one
+generator seeded `[NOISE_STREAM, seed]` afresh at every level, so all noise levels scale
+the same standard-normal draws. Levels differ only by their perturbation, and the same
+command gives the same table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import os
+import re
+from collections import deque
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from . import envs as E
+from .config import ENV_IDS, OBJECT_ENVS, OBS_SETS, ConfigError
+from .io import CheckpointError, check_policy_fits, load_torch, write_csv, write_json
+from .observations import indices, policy_obs
+from .rollout import Policy, run_episodes
+
+
+@dataclass(frozen=True)
+class Knob:
+    """One perturbation: its unit, its nominal (unperturbed) level, its default levels,
+    what a level may be, and whether it needs a task with a block."""
+
+    name: str
+    unit: str
+    nominal: float
+    levels: tuple
+    allowed: str
+    integer: bool = False
+    positive: bool = False
+    needs_object: bool = False
+    doc: str = ""
+
+    def check(self, value: float, horizon: int) -> None:
+        """ConfigError (one line: knob, level, what is allowed) unless `value` is a
+        level."""
+        ok = math.isfinite(value) and (value > 0 if self.positive else value >= 0)
+        if self.integer:
+            ok = ok and float(value).is_integer() and value < horizon
+        if not ok:
+            allowed = self.allowed
+            if self.integer:
+                allowed += f" below the horizon {horizon}"
+            raise ConfigError(
+                f"perturb {self.name}={value:g} is not allowed: {allowed}"
+            )
+
+
+KNOBS: dict[str, Knob] = {
+    k.name: k
+    for k in (
+        Knob(
+            "obs_noise",
+            "m",
+            0.0,
+            (0.0, 0.005, 0.01, 0.02),
+            "a number >= 0 (metres, the std of the camera's error "
+            "on a block's position)",
+            needs_object=True,
+            doc="Gaussian error on each block's measured position and on what derives "
+            "from it",
+        ),
+        Knob(
+            "goal_noise",
+            "m",
+            0.0,
+            (0.0, 0.005, 0.01, 0.02),
+            "a number >= 0 (metres, the std of the camera's error on a target)",
+            doc="Gaussian error on the target the policy is shown",
+        ),
+        Knob(
+            "action_delay",
+            "steps",
+            0,
+            (0, 1, 2),
+            "an integer >= 0",
+            integer=True,
+            doc="the action of step t is applied at step t + d "
+            "(the zero action before)",
+        ),
+        Knob(
+            "action_scale",
+            "x",
+            1.0,
+            (0.8, 1.0, 1.2),
+            "a number > 0 (1: the commanded motion)",
+            positive=True,
+            doc="the end effector moves scale x the commanded displacement",
+        ),
+        Knob(
+            "friction",
+            "x",
+            1.0,
+            (0.5, 1.0, 2.0),
+            "a number > 0 (1: the model's friction)",
+            positive=True,
+            doc="sliding friction of the table and the blocks x scale",
+        ),
+        Knob(
+            "mass",
+            "x",
+            1.0,
+            (0.5, 1.0, 2.0),
+            "a number > 0 (1: the model's mass)",
+            positive=True,
+            needs_object=True,
+            doc="mass and inertia of every block x scale",
+        ),
+    )
+}
+"""The perturbations, in the order the table shows them."""
+
+NOISE_STREAM = 0xACDE
+"""First word of the noise generator's seed, [NOISE_STREAM, seed]: trial 0's env is
+seeded `seed`, and a generator seeded `seed` alone would draw the very numbers that
+place its block."""
+
+PAPER_UR5 = {"FetchReach-v4": 19, "FetchPush-v4": 16, "FetchPickAndPlace-v4": 17}
+"""Section V-E: successes of the simplified-state ACDER policies in 20 trials on a real
+UR5 at 5 cm tolerance ("19 out of 20 trials in reach task, 16 out of 20 trials in push
+task, while 17 out of 20 in pick&place task")."""
+PAPER_TRIALS = 20
+
+CSV_COLUMNS = [
+    "knob",
+    "level",
+    "unit",
+    "nominal",
+    "successes",
+    "trials",
+    "rate",
+    "tolerance",
+]
+
+
+def nominal() -> dict[str, float]:
+    """Every knob at its nominal level: the unperturbed setting."""
+    return {k.name: k.nominal for k in KNOBS.values()}
+
+
+def applicable(env_id: str) -> list[str]:
+    """The knobs that mean something on `env_id` (Reach has no block: no obs_noise, no
+    mass)."""
+    has_object = env_id in OBJECT_ENVS
+    return [k.name for k in KNOBS.values() if has_object or not k.needs_object]
+
+
+def parse_perturb(
+    specs: list[str] | None, env_id: str, horizon: int
+) -> dict[str, list[float]]:
+    """`--perturb` values (`NAME` or `NAME=L1,L2,...`) as {knob: levels}; None or []:
+    every knob that applies to `env_id`, at its default levels. ConfigError (one line)
+    on an unknown name, a level that is not a number or not allowed, or a knob the task
+    has nothing for."""
+    if not specs:
+        return {name: list(KNOBS[name].levels) for name in applicable(env_id)}
+    out: dict[str, list[float]] = {}
+    for spec in specs:
+        name, eq, levels = spec.partition("=")
+        name = name.strip()
+        if name not in KNOBS:
+            raise ConfigError(
+                f"perturb {name!r} is not a perturbation; allowed: {', '.join(KNOBS)}"
+            )
+        knob = KNOBS[name]
+        if name not in applicable(env_id):
+            raise ConfigError(
+                f"perturb {name!r} needs a block; {env_id} has none "
+                f"(allowed there: {', '.join(applicable(env_id))})"
+            )
+        values = []
+        for text in levels.split(",") if eq else []:
+            try:
+                values.append(float(text))
+            except ValueError:
+                raise ConfigError(
+                    f"perturb {name}: {text.strip()!r} is not a number; "
+                    f"allowed: {knob.allowed}"
+                ) from None
+        values = values or list(knob.levels)
+        for v in values:
+            knob.check(v, horizon)
+        out[name] = [int(v) if knob.integer else v for v in dict.fromkeys(values)]
+    return out
+
+
+# ----- the observation layout the noise follows
+
+
+@dataclass
+class Layout:
+    """Where the camera-measured entries sit in the *full* observation (found by name,
+    `envs.obs_names`): (K, 3) index arrays, one row per block, for position, relative
+    position and velocity; and the indices the policy sees (`observations.indices`)."""
+
+    pos: np.ndarray
+    rel: np.ndarray
+    velp: np.ndarray
+    keep: np.ndarray
+
+    @classmethod
+    def of(cls, env, obs: str) -> "Layout":
+        names = E.obs_names(env, full=True)
+        first = (re.match(r"^(object\d*)_pos\.x$", n) for n in names)
+        blocks = [m.group(1) for m in first if m]
+
+        def field(f):
+            rows = [[names.index(f"{b}_{f}.{c}") for c in "xyz"] for b in blocks]
+            return np.array(rows, dtype=np.int64).reshape(len(blocks), 3)
+
+        return cls(field("pos"), field("rel_pos"), field("velp"), indices(names, obs))
+
+
+class Perturbed:
+    """`act(o, g)` under one setting of the knobs, as `rollout.run_episodes` calls it:
+    with the true full observation and goal, once per step of one batch of episodes
+    (make one per batch).
+
+    Draws its noise every step whatever the levels (from `rng`), so settings share their
+    draws. If `log` is a list, each step's (observation, goal) as the policy was shown
+    them is appended to it."""
+
+    def __init__(
+        self,
+        act,
+        layout: Layout,
+        setting: dict,
+        rng: np.random.Generator,
+        log: list | None = None,
+    ):
+        self.act, self.layout, self.s = act, layout, setting
+        self.rng, self.log = rng, log
+        self.prev = None
+        self.queue: deque | None = None
+
+    def __call__(self, o: np.ndarray, g: np.ndarray) -> np.ndarray:
+        L, s = self.layout, self.s
+        W, K = o.shape[0], L.pos.shape[0]
+        if self.prev is None:
+            self.prev = self.rng.standard_normal((W, K, 3))
+        z, zg = self.rng.standard_normal((W, K, 3)), self.rng.standard_normal(g.shape)
+        o, g = np.array(o, dtype=np.float64), np.array(g, dtype=np.float64)
+        if s["obs_noise"] > 0 and K:
+            n, n_prev = s["obs_noise"] * z, s["obs_noise"] * self.prev
+            o[:, L.pos] += n
+            o[:, L.rel] += n  # (pos + n) - grip: the gripper's is exact
+            o[:, L.velp] += n - n_prev  # a difference of two camera frames
+        self.prev = z
+        if s["goal_noise"] > 0:
+            g = g + s["goal_noise"] * zg
+        o_in, g_in = o[:, L.keep].astype(np.float32), g.astype(np.float32)
+        if self.log is not None:
+            self.log.append((o_in, g_in))
+        u = np.array(self.act(o_in, g_in), dtype=np.float32)
+        u[:, :3] *= np.float32(s["action_scale"])
+        u = np.clip(u, -1.0, 1.0)
+        d = int(s["action_delay"])
+        if d == 0:
+            return u
+        if self.queue is None:
+            self.queue = deque([np.zeros_like(u)] * d)
+        self.queue.append(u)
+        return self.queue.popleft()
+
+
+# ----- the model fields
+
+
+def _model_arrays(model) -> dict:
+    out = {}
+    for name in dir(model):
+        if name.startswith("_"):
+            continue
+        try:
+            v = getattr(model, name)
+        except Exception:  # a property that does not apply to this model
+            continue
+        if isinstance(v, np.ndarray):
+            out[name] = v.copy()
+    return out
+
+
+def _body_ids(model, pattern: str) -> list[int]:
+    names = (
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i) or ""
+        for i in range(model.nbody)
+    )
+    return [i for i, name in enumerate(names) if re.fullmatch(pattern, name)]
+
+
+@contextlib.contextmanager
+def scaled_model(env, friction: float = 1.0, mass: float = 1.0):
+    """The env's MuJoCo model with the sliding friction of the table and the blocks x
+    `friction`, and the blocks' mass and inertia x `mass` (bodies `table0`, `object0`,
+    `object1`, ...); on exit every array of the model and its `stat` are as they were,
+    bit for bit."""
+    if friction == 1.0 and mass == 1.0:
+        yield env
+        return
+    m = env.model
+    saved = _model_arrays(m)
+    stat = {
+        k: getattr(m.stat, k) for k in ("meaninertia", "meanmass", "meansize", "extent")
+    }
+    stat["center"] = np.array(m.stat.center)
+    try:
+        blocks = _body_ids(m, r"object\d*")
+        if friction != 1.0:
+            geoms = np.isin(m.geom_bodyid, blocks + _body_ids(m, r"table0"))
+            m.geom_friction[geoms, 0] *= friction
+        if mass != 1.0:
+            m.body_mass[blocks] *= mass
+            m.body_inertia[blocks] *= mass
+            # trap: mj_setConst uses the data it is given as scratch (sets its qpos)
+            mujoco.mj_setConst(m, mujoco.MjData(m))
+        yield env
+    finally:
+        for name, v in saved.items():
+            getattr(m, name)[...] = v
+        for k, v in stat.items():
+            setattr(m.stat, k, v)
+
+
+# ----- the bench
+
+
+def success(ag: np.ndarray, g: np.ndarray, tolerance: float) -> np.ndarray:
+    """(W,) bool: every block (3 numbers of the goal each) within `tolerance` of its
+    target."""
+    d = np.linalg.norm((ag - g).reshape(ag.shape[0], -1, 3), axis=-1)
+    return np.all(d < tolerance, axis=-1)
+
+
+class Bench:
+    """The trials' envs, made once (with the full observation: the policy's entries are
+    picked at every step), and one rollout per setting of the knobs."""
+
+    def __init__(self, env_id: str, obs: str = "full", trials: int = 20, seed: int = 0):
+        self.env_id, self.obs, self.trials, self.seed = env_id, obs, trials, seed
+        self.envs = [E.make_env(env_id, seed=seed + i) for i in range(trials)]
+        self.start = [(E.get_state(e), E.env_rng_state(e)) for e in self.envs]
+        self.layout = Layout.of(self.envs[0], obs)
+        self.T = E.horizon(env_id)
+
+    def rollout(self, act, setting: dict, log: list | None = None) -> dict:
+        """One episode per trial under `setting` (every knob; `nominal()` for none): the
+        arrays of `run_episodes` (true observations and goals, the applied actions)."""
+        for env, (state, rng) in zip(self.envs, self.start):
+            E.set_state(env, state)  # the warm start too: no level sees the last one
+            E.set_env_rng_state(env, rng)
+        rng = np.random.default_rng([NOISE_STREAM, self.seed])
+        with contextlib.ExitStack() as stack:
+            for env in self.envs:
+                scaled = scaled_model(env, setting["friction"], setting["mass"])
+                stack.enter_context(scaled)
+            act = Perturbed(act, self.layout, setting, rng, log)
+            return run_episodes(self.envs, act, self.T)
+
+    def close(self) -> None:
+        for env in self.envs:
+            env.close()
+
+
+def run_bench(
+    act,
+    env_id: str,
+    obs: str = "full",
+    knobs: dict | None = None,
+    trials: int = 20,
+    tolerance: float = 0.05,
+    seed: int = 0,
+) -> dict:
+    """Success of `act(o, g)` (a policy on observation set `obs`) over `trials` trials
+    at each level of each knob, one knob at a time, the others nominal; `knobs` is
+    {knob: levels} as `parse_perturb` gives it (None: its default).
+
+    Returns the settings and `rows`: one per (knob, level) with successes, trials, rate
+    and the per-trial successes (0/1). A setting met twice (the nominal level of every
+    knob) is rolled out once: it is the same trials either way."""
+    if not (
+        isinstance(tolerance, (int, float))
+        and math.isfinite(tolerance)
+        and tolerance > 0
+    ):
+        raise ConfigError(
+            f"tolerance={tolerance!r} is not allowed: a number > 0 (metres)"
+        )
+    if not (isinstance(trials, int) and trials >= 1):
+        raise ConfigError(f"trials={trials!r} is not allowed: an integer >= 1")
+    bench = Bench(env_id, obs, trials, seed)
+    knobs = parse_perturb(None, env_id, bench.T) if knobs is None else knobs
+    done: dict[tuple, np.ndarray] = {}
+    rows = []
+    try:
+        for name, levels in knobs.items():
+            for level in levels:
+                setting = dict(nominal(), **{name: level})
+                key = tuple(sorted(setting.items()))
+                if key not in done:
+                    ep = bench.rollout(act, setting)
+                    done[key] = success(ep["ag"][:, -1], ep["g"][:, -1], tolerance)
+                ok = done[key]
+                rows.append(
+                    dict(
+                        knob=name,
+                        level=level,
+                        unit=KNOBS[name].unit,
+                        nominal=bool(level == KNOBS[name].nominal),
+                        successes=int(ok.sum()),
+                        trials=trials,
+                        rate=float(ok.mean()),
+                        tolerance=tolerance,
+                        trial_success=ok.astype(int).tolist(),
+                    )
+                )
+    finally:
+        bench.close()
+    knob_docs = {
+        n: dict(
+            unit=KNOBS[n].unit,
+            nominal=KNOBS[n].nominal,
+            levels=list(v),
+            doc=KNOBS[n].doc,
+        )
+        for n, v in knobs.items()
+    }
+    return dict(
+        env=env_id,
+        obs=obs,
+        trials=trials,
+        tolerance=tolerance,
+        seed=seed,
+        horizon=bench.T,
+        env_seeds=[seed, seed + trials - 1],
+        knobs=knob_docs,
+        rows=rows,
+    )
+
+
+def to_text(result: dict) -> str:
+    """The table: one line per (knob, level), success count out of N."""
+    method = f", {result['method']}" if result.get("method") else ""
+    head = (
+        f"robust: {result['env']}{method} (obs {result['obs']}), "
+        f"{result['trials']} trials at {result['tolerance']:g} m, seed "
+        f"{result['seed']}; one knob at a time, the others nominal"
+    )
+    lines = [head, f"{'knob':<14}{'level':>7} {'unit':<6}{'success':>8}"]
+    last = None
+    for r in result["rows"]:
+        name, last = (r["knob"] if r["knob"] != last else ""), r["knob"]
+        mark = "  (nominal)" if r["nominal"] else ""
+        count = f"{r['successes']:>5}/{r['trials']}"
+        lines.append(f"{name:<14}{r['level']:>7g} {r['unit']:<6}{count}{mark}")
+    return "\n".join(lines)
+
+
+def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson's score interval for a success rate of k in n trials (z = 1.96: 95%);
+    unlike the normal approximation it stays inside [0, 1] at k = 0 or k = n."""
+    p = k / n
+    mid = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return mid - half, mid + half
+
+
+def weakest(result: dict) -> dict:
+    """The row of `result` (a `run_bench` result) with the fewest successes; the first
+    such row, in the table's order, on a tie."""
+    return min(result["rows"], key=lambda r: r["successes"])
+
+
+def side_by_side(results: dict[str, dict]) -> str:
+    """A Markdown table of several benches: a row per (knob, level) in the order the
+    benches met them, a column per bench (`results`: {column label: `run_bench`
+    result}) holding its successes out of its trials, "–" where the knob does not apply
+    to that bench's task or was not run."""
+    counts = {
+        label: {
+            (r["knob"], r["level"]): f"{r['successes']}/{r['trials']}"
+            for r in res["rows"]
+        }
+        for label, res in results.items()
+    }
+    rows = list(dict.fromkeys(k for c in counts.values() for k in c))
+    lines = [
+        "| knob | level | " + " | ".join(results) + " |",
+        "|---|---:|" + "---:|" * len(results),
+    ]
+    for knob, level in rows:
+        unit = KNOBS[knob].unit
+        cells = [c.get((knob, level), "–") for c in counts.values()]
+        mark = " (nominal)" if level == KNOBS[knob].nominal else ""
+        lines.append(
+            f"| `{knob}` | {level:g} {unit}{mark} | " + " | ".join(cells) + " |"
+        )
+    return "\n".join(lines)
+
+
+# ----- the command
+
+
+def load_policy(path: str) -> tuple[dict, str]:
+    """The policy dict of a run folder (its policy.pt, else checkpoint.pt) or of a .pt
+    file, read without running anything from it (`io.load_torch`), and that file."""
+    if os.path.isdir(path):
+        for name in ("policy.pt", "checkpoint.pt"):
+            if os.path.isfile(os.path.join(path, name)):
+                path = os.path.join(path, name)
+                break
+        else:
+            raise CheckpointError(
+                f"run folder {path!r} holds neither policy.pt nor "
+                "checkpoint.pt; allowed: a run folder written by "
+                "train, or its policy.pt"
+            )
+    pol = load_torch(path)["policy"]
+    if pol["env"] not in ENV_IDS:
+        raise CheckpointError(
+            f"checkpoint {path!r} names env {pol['env']!r}; allowed: "
+            f"one of {', '.join(ENV_IDS)}"
+        )
+    return pol, path
+
+
+def policy_act(pol: dict, path: str, env_id: str | None = None, obs: str | None = None):
+    """The in-package policy of `pol` and its observation set, checked against the task
+    and the set asked for (None: the policy's own) and against the sizes its env gives:
+    one-line ConfigError or CheckpointError otherwise."""
+    trained_obs = policy_obs(pol)
+    if env_id is not None and env_id != pol["env"]:
+        raise ConfigError(
+            f"env={env_id!r} is not the policy's task: {path} was "
+            f"trained on {pol['env']}; allowed: --env {pol['env']} (or "
+            "leave it out)"
+        )
+    if obs is not None and obs != trained_obs:
+        raise ConfigError(
+            f"obs={obs!r} is not the policy's observation set: {path} "
+            f"was trained on obs={trained_obs!r}; allowed: --obs "
+            f"{trained_obs} (or leave it out)"
+        )
+    env = E.make_env(pol["env"], obs=trained_obs)
+    first = env._get_obs()
+    check_policy_fits(
+        pol,
+        path,
+        first["observation"].size,
+        first["desired_goal"].size,
+        env.action_space.shape[0],
+    )
+    env.close()
+    return Policy.from_state_dict(pol), trained_obs
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "policy",
+        metavar="RUN_OR_POLICY",
+        help="a run folder (its policy.pt, else checkpoint.pt) or a .pt file",
+    )
+    p.add_argument(
+        "--trials",
+        type=int,
+        default=20,
+        help="trials per level (default: 20, the paper's)",
+    )
+    p.add_argument(
+        "--tolerance",
+        type=float,
+        default=0.05,
+        help="metres; success: every block (Reach: the gripper) this close "
+        "to its target at the last step (default: 0.05, the paper's "
+        "5 cm)",
+    )
+    levels = lambda k: ",".join(f"{v:g}" for v in k.levels)
+    knobs = "; ".join(
+        f"{k.name} ({k.unit}, default {levels(k)})" for k in KNOBS.values()
+    )
+    p.add_argument(
+        "--perturb",
+        action="append",
+        metavar="NAME[=L1,L2,...]",
+        help="a knob and its levels (repeatable; default: every knob that "
+        f"applies, at its default levels): {knobs}",
+    )
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=12345,
+        help="trial i's env is seeded seed + i (default: 12345, as eval)",
+    )
+    p.add_argument(
+        "--env", default=None, help="must be the policy's task (default: the policy's)"
+    )
+    p.add_argument(
+        "--obs",
+        default=None,
+        help="must be the policy's observation set: "
+        + " or ".join(OBS_SETS)
+        + " (default: the policy's)",
+    )
+    p.add_argument("--threads", type=int, default=1, help="torch threads (default: 1)")
+    p.add_argument(
+        "--json", metavar="FILE", help="write the settings and every row to FILE"
+    )
+    p.add_argument(
+        "--csv",
+        metavar="FILE",
+        help="write the table to FILE (" + ", ".join(CSV_COLUMNS) + ")",
+    )
+
+
+def run(args) -> int:
+    import torch
+
+    from .runfiles import versions
+
+    if args.trials < 1:
+        raise ConfigError(f"trials={args.trials} is not allowed: an integer >= 1")
+    if not (math.isfinite(args.tolerance) and args.tolerance > 0):
+        raise ConfigError(
+            f"tolerance={args.tolerance:g} is not allowed: a number > 0 (metres)"
+        )
+    if args.threads < 1:
+        raise ConfigError(f"threads={args.threads} is not allowed: an integer >= 1")
+    if args.obs is not None and args.obs not in OBS_SETS:
+        allowed = " or ".join(repr(x) for x in OBS_SETS)
+        raise ConfigError(f"obs={args.obs!r} is not allowed: {allowed}")
+    pol, path = load_policy(args.policy)
+    # the task and the observation set asked for first, then the knobs on that task
+    policy, obs = policy_act(pol, path, args.env, args.obs)
+    knobs = parse_perturb(args.perturb, pol["env"], E.horizon(pol["env"]))
+    torch.set_num_threads(args.threads)  # this process's own: the command runs alone
+    result = run_bench(
+        policy, pol["env"], obs, knobs, args.trials, args.tolerance, args.seed
+    )
+    result = dict(policy=path, method=pol["method"], **result, versions=versions())
+    print(to_text(result))
+    if args.json:
+        write_json(args.json, result)
+    if args.csv:
+        write_csv(args.csv, result["rows"], CSV_COLUMNS)
+    return 0

@@ -1,0 +1,182 @@
+"""The deployable export: the same actions as the in-package policy, loadable with
+nothing but torch, the simplified-state selection baked in; ONNX when its packages are
+there."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+
+from acder_lite import envs as E
+from acder_lite.core import Actor
+from acder_lite.export import META_FILE, build, export_torchscript
+from acder_lite.normalizer import Normalizer
+from acder_lite.observations import simplified_indices
+from acder_lite.rollout import Policy
+
+from test_cli import one_line_error
+
+pytestmark = pytest.mark.filterwarnings(
+    "ignore:`torch.jit.load` is deprecated:DeprecationWarning"
+)
+"""torch 2.13 deprecates TorchScript (acder_lite.export's docstring); the robot side
+still loads it."""
+
+SIZES = {
+    ("FetchPush-v4", "full"): 25,
+    ("FetchPush-v4", "simplified"): 11,
+    ("FetchReach-v4", "simplified"): 5,
+    ("FetchPushMultiStep-v0", "simplified"): 17,
+}
+
+
+def policy_dict(env_id: str, obs: str, seed: int = 0) -> dict:
+    """An untrained policy with fitted normalisers (statistics far from 0/1, so
+    normalising and its clip matter), as the trainer writes it."""
+    n_o = SIZES[(env_id, obs)]
+    n_g = 6 if env_id == "FetchPushMultiStep-v0" else 3
+    rng = np.random.default_rng(seed)
+    torch.manual_seed(seed)
+    o_norm, g_norm = Normalizer(n_o), Normalizer(n_g)
+    o_norm.update(rng.normal(1.0, 0.3, (500, n_o)))
+    g_norm.update(rng.normal(0.8, 0.1, (500, n_g)))
+    pol = Policy(Actor(n_o + n_g, 4, 32, 3), o_norm, g_norm, 200.0)
+    return dict(pol.state_dict(env_id, "acder"), obs=obs)
+
+
+def inputs(n_o: int, n_g: int, seed: int = 1):
+    """100 random inputs around the statistics, some past the clips
+    (|x| > 200, |z| > 5)."""
+    rng = np.random.default_rng(seed)
+    o = rng.normal(1.0, 2.0, (100, n_o)).astype(np.float32)
+    g = rng.normal(0.8, 1.0, (100, n_g)).astype(np.float32)
+    o[:5] *= 300.0
+    return o, g
+
+
+@pytest.mark.parametrize("env_id,obs", list(SIZES))
+def test_export_acts_as_the_policy(tmp_path, env_id, obs):
+    pol = policy_dict(env_id, obs)
+    path = tmp_path / "policy.ts"
+    meta = export_torchscript(pol, str(path), "policy.pt")
+    m = torch.jit.load(str(path))
+    ref = Policy.from_state_dict(pol)
+    env = E.make_env(env_id)
+    full_names = E.obs_names(env, full=True)
+    n_full, n_g = len(full_names), pol["norm"]["g"]
+    o_full, g = inputs(n_full, n_g)
+    idx = np.arange(n_full) if obs == "full" else simplified_indices(full_names)
+    want = ref(o_full[:, idx], g)
+    with torch.no_grad():
+        got_full = m(torch.from_numpy(o_full), torch.from_numpy(g)).numpy()
+        got_own = m(torch.from_numpy(o_full[:, idx]), torch.from_numpy(g)).numpy()
+        one = m(
+            torch.from_numpy(o_full[7]).double(), torch.from_numpy(g[7]).double()
+        ).numpy()  # one input, float64
+    assert np.abs(got_full - want).max() <= 1e-6
+    assert np.abs(got_own - want).max() <= 1e-6
+    assert np.abs(one - want[7]).max() <= 1e-6 and one.dtype == np.float32
+    assert got_full.min() >= -1 and got_full.max() <= 1
+    assert list(m.obs_names) == [full_names[i] for i in idx] == meta["obs_names"]
+    assert list(m.full_obs_names) == full_names and len(m.goal_names) == n_g
+    assert (m.env, m.obs) == (env_id, obs)
+
+
+def test_wrong_widths_are_refused(tmp_path):
+    path = tmp_path / "p.ts"
+    export_torchscript(policy_dict("FetchPush-v4", "simplified"), str(path))
+    m = torch.jit.load(str(path))
+    with pytest.raises(
+        Exception, match=r"observation has 12 numbers; allowed: 11 .* or 25"
+    ):
+        m(torch.zeros(12), torch.zeros(3))
+    with pytest.raises(Exception, match="goal has 6 numbers; allowed: 3"):
+        m(torch.zeros(11), torch.zeros(6))
+
+
+ROBOT_SIDE = r"""
+import json, sys
+import torch
+extra = {"acder_lite.json": ""}
+m = torch.jit.load(sys.argv[1], _extra_files=extra)
+x = torch.load(sys.argv[2])
+with torch.no_grad():
+    u = m(x["o"], x["g"])
+ours = sorted(k for k in sys.modules if k.split(".")[0] == "acder_lite")
+torch.save({"u": u, "meta": json.loads(extra["acder_lite.json"]), "imported": ours},
+           sys.argv[3])
+"""
+
+
+def test_loads_in_a_process_without_acder_lite(tmp_path):
+    """A robot-side program: torch only, another folder, no PYTHONPATH to the repo."""
+    pol = policy_dict("FetchPush-v4", "simplified")
+    path = tmp_path / "push.ts"
+    export_torchscript(pol, str(path), "policy.pt")
+    o, g = inputs(25, 3)
+    torch.save({"o": torch.from_numpy(o), "g": torch.from_numpy(g)}, tmp_path / "in.pt")
+    (tmp_path / "robot.py").write_text(ROBOT_SIDE)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    p = subprocess.run(
+        [sys.executable, "robot.py", str(path), "in.pt", "out.pt"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert p.returncode == 0, p.stderr
+    out = torch.load(tmp_path / "out.pt")
+    assert out["imported"] == []
+    want = Policy.from_state_dict(pol)(o[:, :11], g)
+    assert np.abs(out["u"].numpy() - want).max() <= 1e-6
+    meta = out["meta"]
+    assert (meta["env"], meta["obs"]) == ("FetchPush-v4", "simplified")
+    assert meta["source"] == "policy.pt" and len(meta["obs_names"]) == 11
+    assert meta["clip_obs"] == 200.0 and meta["norm_clip"] == 5.0
+
+
+def test_build_refuses_a_policy_whose_sizes_are_not_its_task(tmp_path):
+    from acder_lite.io import CheckpointError
+
+    pol = policy_dict("FetchPush-v4", "full")
+    pol["obs"] = "simplified"  # 25 inputs recorded as the 11-entry set
+    with pytest.raises(CheckpointError, match="observation/goal/action sizes 25/3/4"):
+        build(pol)
+
+
+def test_cli(cli, tmp_path):
+    from acder_lite.io import save_torch
+
+    src = tmp_path / "policy.pt"
+    save_torch(str(src), {"policy": policy_dict("FetchReach-v4", "simplified")})
+    p = cli("export", str(src), "--out", str(tmp_path / "reach.ts"))
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.startswith("export: ")
+    assert "obs simplified: 5 observation entries" in p.stdout
+    extra = {META_FILE: ""}
+    torch.jit.load(str(tmp_path / "reach.ts"), _extra_files=extra)
+    assert json.loads(extra[META_FILE])["env"] == "FetchReach-v4"
+    one_line_error(
+        cli("export", str(src), "--out", str(src)), "is the policy file itself"
+    )
+
+
+def test_onnx_same_actions(tmp_path):
+    pytest.importorskip("onnx")
+    pytest.importorskip("onnxscript")
+    ort = pytest.importorskip("onnxruntime")
+    from acder_lite.export import export_onnx
+
+    pol = policy_dict("FetchPush-v4", "simplified")
+    export_onnx(pol, str(tmp_path / "p.onnx"))
+    s = ort.InferenceSession(
+        str(tmp_path / "p.onnx"), providers=["CPUExecutionProvider"]
+    )
+    o, g = inputs(11, 3)
+    u = s.run(None, {"observation": o, "goal": g})[0]
+    assert np.abs(u - Policy.from_state_dict(pol)(o, g)).max() <= 1e-6

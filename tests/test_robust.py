@@ -1,0 +1,329 @@
+"""The robustness bench: a perfect scripted policy scores N/N, each knob perturbs only
+what it names, model fields come back bit for bit, the same seed gives the same table,
+bad input."""
+
+import csv
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+from acder_lite import envs as E
+from acder_lite.config import ConfigError
+from acder_lite.robust import (
+    KNOBS,
+    Bench,
+    Layout,
+    Perturbed,
+    nominal,
+    parse_perturb,
+    run_bench,
+    scaled_model,
+    side_by_side,
+    weakest,
+    wilson_interval,
+)
+
+from test_cli import one_line_error
+
+
+def reach_controller(o, g):
+    """A perfect Reach policy: step the gripper (o[:3]) toward the goal; FetchReach
+    moves the mocap 0.05 m per unit action, so half the error a step converges well
+    within 50 steps."""
+    u = np.zeros((len(o), 4), np.float32)
+    u[:, :3] = np.clip(0.5 * (g - o[:, :3]) / 0.05, -1, 1)
+    return u
+
+
+def zero_policy(o, g):
+    return np.zeros((len(o), 4), np.float32)
+
+
+def test_a_perfect_policy_scores_n_of_n_on_reach():
+    r = run_bench(
+        reach_controller,
+        "FetchReach-v4",
+        knobs={"goal_noise": [0.0]},
+        trials=20,
+        seed=7,
+    )
+    (row,) = r["rows"]
+    assert (row["successes"], row["trials"]) == (20, 20) and row["nominal"]
+    # and on the simplified state: the controller reads only o[:3]
+    r = run_bench(
+        reach_controller,
+        "FetchReach-v4",
+        obs="simplified",
+        knobs={"goal_noise": [0.0]},
+        trials=5,
+        seed=7,
+    )
+    assert r["rows"][0]["successes"] == 5
+
+
+def test_side_by_side_puts_benches_in_columns():
+    reach = run_bench(
+        reach_controller,
+        "FetchReach-v4",
+        knobs={"action_delay": [0, 2]},
+        trials=3,
+        seed=7,
+    )
+    lazy = run_bench(
+        zero_policy,
+        "FetchReach-v4",
+        knobs={"action_delay": [0], "goal_noise": [0.01]},
+        trials=2,
+        seed=7,
+    )
+    lines = side_by_side({"controller": reach, "zero": lazy}).splitlines()
+    assert lines[0] == "| knob | level | controller | zero |"
+    by_row = {
+        tuple(c.strip() for c in ln.split("|")[1:3]): ln.split("|")[3:5]
+        for ln in lines[2:]
+    }
+    assert [c.strip() for c in by_row[("`action_delay`", "0 steps (nominal)")]] == [
+        f"{reach['rows'][0]['successes']}/3",
+        f"{lazy['rows'][0]['successes']}/2",
+    ]
+    assert [c.strip() for c in by_row[("`goal_noise`", "0.01 m")]] == ["–", "0/2"]
+    assert len(lines) == 2 + 3  # delay 0, delay 2, goal noise 0.01
+    low = weakest(reach)
+    assert low["successes"] == min(r["successes"] for r in reach["rows"])
+
+
+def test_wilson_interval_hand_worked():
+    # 16 of 20: p = 0.8, z = 1.96: centre (0.8 + 0.09604) / 1.19208 = 0.75166, half
+    # 1.96 / 1.19208 * sqrt(0.008 + 0.0024010) = 0.16768
+    lo, hi = wilson_interval(16, 20)
+    assert lo == pytest.approx(0.58398, abs=1e-4) and hi == pytest.approx(
+        0.91934, abs=1e-4
+    )
+    lo, hi = wilson_interval(20, 20)
+    assert hi == pytest.approx(1.0) and 0.8 < lo < 0.85
+
+
+def test_determinism_for_a_seed_and_common_trials():
+    knobs = {"goal_noise": [0.0, 0.02], "action_delay": [0, 2], "friction": [0.5]}
+    kw = dict(knobs=knobs, trials=6, tolerance=0.02, seed=3)
+    a = run_bench(reach_controller, "FetchReach-v4", **kw)
+    b = run_bench(reach_controller, "FetchReach-v4", **kw)
+    assert a["rows"] == b["rows"]
+    assert [r["level"] for r in a["rows"]] == [0.0, 0.02, 0, 2, 0.5]
+    # the nominal level of every knob is the same trials: the same outcome
+    assert a["rows"][0]["trial_success"] == a["rows"][2]["trial_success"]
+    assert a["rows"][1]["successes"] < 6  # 2 cm of goal noise at a 2 cm tolerance shows
+
+
+def _logged(bench, setting, act=zero_policy):
+    log = []
+    ep = bench.rollout(act, setting, log)
+    shown_o = np.stack([o for o, _ in log], 1)  # (W, T, .): what the policy was shown
+    shown_g = np.stack([g for _, g in log], 1)
+    return ep, shown_o, shown_g
+
+
+def test_obs_noise_changes_only_the_block_entries():
+    bench = Bench("FetchPush-v4", trials=3, seed=0)
+    names = E.obs_names(bench.envs[0])
+    ep, o, g = _logged(bench, nominal())
+    assert np.array_equal(o, ep["o"][:, :-1])  # level 0: exactly the observation
+    assert np.array_equal(g, ep["g"])
+    ep2, o2, g2 = _logged(bench, dict(nominal(), obs_noise=0.01))
+    assert np.array_equal(ep2["o"], ep["o"])  # the same world (a zero policy); the view
+    d = o2.astype(np.float64) - ep["o"][:, :-1]
+    moved = {names[i] for i in np.nonzero(np.abs(d).max(axis=(0, 1)) > 0)[0]}
+    fields = ("pos", "rel_pos", "velp")
+    assert moved == {f"object_{f}.{c}" for f in fields for c in "xyz"}
+    pos, rel, velp = (
+        [names.index(f"object_{f}.{c}") for c in "xyz"]
+        for f in ("pos", "rel_pos", "velp")
+    )
+    n = d[..., pos]
+    assert np.allclose(d[..., rel], n, atol=1e-6)  # the same error; the gripper exact
+    frames = n[:, 1:] - n[:, :-1]
+    assert np.allclose(d[:, 1:][..., velp], frames, atol=1e-6)  # a frame difference
+    assert 0.005 < n.std() < 0.015
+    assert np.array_equal(g2, ep["g"])
+
+
+def test_goal_noise_changes_only_the_goal_and_success_uses_the_true_goal():
+    bench = Bench("FetchPush-v4", obs="simplified", trials=2, seed=0)
+    ep, o, g = _logged(bench, dict(nominal(), goal_noise=0.01))
+    assert o.shape[-1] == 11  # the simplified policy is shown its 11 entries
+    assert np.array_equal(o, ep["o"][:, :-1, :11])
+    assert not np.array_equal(g, ep["g"].astype(np.float32))
+    assert np.ptp(ep["g"], axis=1).max() == 0  # the recorded (true) goal never moves
+
+
+def test_simplified_obs_noise_touches_position_and_relative_position():
+    bench = Bench("FetchPushMultiStep-v0", obs="simplified", trials=2, seed=0)
+    ep, o, _ = _logged(bench, dict(nominal(), obs_noise=0.01))
+    d = o.astype(np.float64) - ep["o"][:, :-1, bench.layout.keep]
+    changed = np.nonzero(np.abs(d).max(axis=(0, 1)) > 0)[0].tolist()
+    # object{0,1}_pos and object{0,1}_rel_pos; the gripper and the fingers stay exact
+    assert changed == list(range(3, 15))
+
+
+def test_action_delay_and_scale():
+    no_block = np.zeros((0, 3), np.int64)
+    layout = Layout(no_block, no_block, no_block, keep=np.arange(3))
+    calls = iter(range(1, 100))
+
+    def act(o, g):
+        return np.full((1, 4), next(calls) / 10, np.float32)
+
+    p = Perturbed(
+        act,
+        layout,
+        dict(nominal(), action_delay=2, action_scale=2.0),
+        np.random.default_rng(0),
+    )
+    out = [p(np.zeros((1, 3)), np.zeros((1, 3)))[0] for _ in range(5)]
+    assert [u.tolist() for u in out[:2]] == [[0, 0, 0, 0]] * 2  # held still
+    assert np.allclose(out[2], [0.2, 0.2, 0.2, 0.1])  # step 1's; xyz x2, gripper not
+    assert np.allclose(out[4], [0.6, 0.6, 0.6, 0.3])
+    p = Perturbed(
+        lambda o, g: np.full((1, 4), 0.9, np.float32),
+        layout,
+        dict(nominal(), action_scale=1.2),
+        np.random.default_rng(0),
+    )
+    assert p(np.zeros((1, 3)), np.zeros((1, 3))).max() == 1.0  # the action space's clip
+
+
+def test_model_fields_scale_and_come_back_bit_for_bit():
+    env = E.make_env("FetchPush-v4", seed=0)
+    fresh = E.make_env("FetchPush-v4", seed=0)
+    m = env.model
+    fields = (
+        "geom_friction",
+        "body_mass",
+        "body_inertia",
+        "dof_invweight0",
+        "body_subtreemass",
+    )
+    before = {k: np.array(getattr(m, k)) for k in fields}
+    meaninertia = m.stat.meaninertia
+    body = lambda name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+    block = body("object0")
+    with scaled_model(env, friction=0.5, mass=2.0):
+        assert m.body_mass[block] == 2 * before["body_mass"][block]
+        changed = np.nonzero(m.geom_friction[:, 0] != before["geom_friction"][:, 0])[0]
+        owners = sorted(m.geom_bodyid[changed].tolist())
+        assert owners == sorted([block, body("table0")])
+        assert not np.array_equal(m.dof_invweight0, before["dof_invweight0"])
+    for k, v in before.items():
+        assert np.array_equal(getattr(m, k), v), k
+    assert m.stat.meaninertia == meaninertia
+    u = np.array([0.4, 0.1, -0.2, 0.0])
+    for _ in range(10):
+        a, _ = E.step(env, u)
+        b, _ = E.step(fresh, u)
+    assert np.array_equal(a["observation"], b["observation"])  # as a freshly made env
+
+
+def test_parse_perturb_defaults_and_errors():
+    assert list(parse_perturb(None, "FetchPush-v4", 50)) == list(KNOBS)
+    reach = ["goal_noise", "action_delay", "action_scale", "friction"]
+    assert list(parse_perturb(None, "FetchReach-v4", 50)) == reach
+    got = parse_perturb(["action_delay=0,1,1"], "FetchPush-v4", 50)
+    assert got == {"action_delay": [0, 1]}
+    assert parse_perturb(["mass"], "FetchPush-v4", 50) == {"mass": [0.5, 1.0, 2.0]}
+    for spec, needle in (
+        ("wind=1", "allowed: obs_noise, goal_noise"),
+        ("obs_noise=-0.01", "obs_noise=-0.01 is not allowed: a number >= 0"),
+        ("obs_noise=x", "'x' is not a number"),
+        ("obs_noise=", "'' is not a number"),
+        ("action_delay=1.5", "an integer >= 0"),
+        ("action_delay=50", "below the horizon 50"),
+        ("friction=0", "a number > 0"),
+        ("mass=nan", "a number > 0"),
+    ):
+        with pytest.raises(ConfigError, match=needle):
+            parse_perturb([spec], "FetchPush-v4", 50)
+    with pytest.raises(ConfigError, match="needs a block; FetchReach-v4 has none"):
+        parse_perturb(["mass=2"], "FetchReach-v4", 50)
+    with pytest.raises(ConfigError, match="tolerance=0 is not allowed"):
+        run_bench(zero_policy, "FetchReach-v4", tolerance=0)
+
+
+# ----- the command
+
+
+@pytest.fixture(scope="module")
+def reach_policy(tmp_path_factory):
+    """A policy.pt of an untrained FetchReach actor (what a run writes, without the
+    run)."""
+    import torch
+
+    from acder_lite.core import Actor
+    from acder_lite.io import save_torch
+    from acder_lite.normalizer import Normalizer
+    from acder_lite.rollout import Policy
+
+    torch.manual_seed(0)
+    pol = Policy(Actor(13, 4, 16, 2), Normalizer(10), Normalizer(3), 200.0)
+    path = tmp_path_factory.mktemp("policy") / "policy.pt"
+    d = dict(pol.state_dict("FetchReach-v4", "her"), obs="full")
+    save_torch(str(path), {"policy": d})
+    return path
+
+
+def test_cli_table_json_and_csv(cli, reach_policy, tmp_path):
+    js, cs = tmp_path / "r.json", tmp_path / "r.csv"
+    p = cli(
+        "robust",
+        str(reach_policy),
+        "--trials",
+        "2",
+        "--perturb",
+        "action_delay=0,1",
+        "--perturb",
+        "goal_noise=0.01",
+        "--json",
+        str(js),
+        "--csv",
+        str(cs),
+    )
+    assert p.returncode == 0, p.stderr
+    assert "robust: FetchReach-v4, her (obs full), 2 trials at 0.05 m" in p.stdout
+    assert "action_delay" in p.stdout and "/2  (nominal)" in p.stdout
+    d = json.loads(js.read_text())
+    assert [(r["knob"], r["level"]) for r in d["rows"]] == [
+        ("action_delay", 0),
+        ("action_delay", 1),
+        ("goal_noise", 0.01),
+    ]
+    assert d["seed"] == 12345 and d["trials"] == 2 and d["tolerance"] == 0.05
+    rows = list(csv.DictReader(cs.open()))
+    assert [r["knob"] for r in rows] == ["action_delay", "action_delay", "goal_noise"]
+    assert rows[0]["trials"] == "2"
+
+
+@pytest.mark.parametrize(
+    "args,needles",
+    [
+        (
+            ["--perturb", "wind=2"],
+            ["perturb 'wind' is not a perturbation", "obs_noise", "mass"],
+        ),
+        (["--perturb", "goal_noise=-0.01"], ["goal_noise=-0.01", ">= 0"]),
+        (["--tolerance", "0"], ["tolerance=0", "> 0"]),
+        (["--tolerance", "-0.05"], ["tolerance=-0.05", "> 0"]),
+        (
+            ["--env", "FetchPush-v4"],
+            ["env='FetchPush-v4'", "trained on FetchReach-v4", "--env FetchReach-v4"],
+        ),
+        (["--obs", "simplified"], ["obs='simplified'", "obs='full'", "--obs full"]),
+        (["--trials", "0"], ["trials=0", ">= 1"]),
+    ],
+)
+def test_cli_bad_input_is_one_line(cli, reach_policy, args, needles):
+    one_line_error(cli("robust", str(reach_policy), *args), *needles)
+
+
+def test_cli_missing_policy(cli, tmp_path):
+    one_line_error(cli("robust", str(tmp_path)), "neither policy.pt nor checkpoint.pt")
