@@ -165,7 +165,7 @@ def cmd_eval(args) -> int:
     import numpy as np
 
     from . import envs as E
-    from .io import check_policy_fits, load_torch
+    from .io import load_torch
     from .rollout import Policy, run_episodes
 
     if args.episodes < 1:
@@ -188,18 +188,9 @@ def cmd_eval(args) -> int:
             f"{', '.join(E.ENV_IDS)}"
         )
     policy = Policy.from_state_dict(pol)
-    from .observations import policy_obs
+    from .observations import policy_env
 
-    # the set it was trained on
-    env = E.make_env(env_id, seed=args.seed, obs=policy_obs(pol))
-    first = env._get_obs()
-    check_policy_fits(
-        pol,
-        args.checkpoint,
-        first["observation"].size,
-        first["desired_goal"].size,
-        env.action_space.shape[0],
-    )
+    env = policy_env(pol, args.checkpoint, seed=args.seed)  # the set it was trained on
     T = E.horizon(env_id)
     succ = [run_episodes([env], policy, T)["success"][0] for _ in range(args.episodes)]
     print(

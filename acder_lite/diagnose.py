@@ -37,7 +37,7 @@ import torch
 from . import envs as E
 from .config import OBJECT_ENVS, Config, ConfigError
 from .curiosity import SICM
-from .io import CheckpointError, check_policy_fits, load_torch, write_json
+from .io import CheckpointError, load_torch, write_json
 
 
 def state_names(trainer) -> list[str]:
@@ -341,17 +341,9 @@ def diagnose(
                 f"{', '.join(E.ENV_IDS)}"
             )
         policy = Policy.from_state_dict(pol)
-        from .observations import on_full, policy_obs
+        from .observations import on_full, policy_env
 
-        env = E.make_env(pol["env"], obs=policy_obs(pol))
-        first = env._get_obs()
-        check_policy_fits(
-            pol,
-            path,
-            first["observation"].size,
-            first["desired_goal"].size,
-            env.action_space.shape[0],
-        )
+        env = policy_env(pol, path)
         env.close()
         # the motion reads the full observation (object_velr); a simplified-state policy
         # is shown its own entries of it

@@ -54,7 +54,7 @@ from torch import nn
 from . import envs as E
 from .config import ConfigError
 from .io import atomic_write
-from .observations import indices, policy_obs
+from .observations import indices, policy_env, policy_obs
 from .rollout import Policy
 
 # No `from __future__ import annotations` in this module: TorchScript reads
@@ -146,20 +146,10 @@ class DeployedPolicy(nn.Module):
 
 def build(pol: dict, path: str = "policy") -> DeployedPolicy:
     """The DeployedPolicy of a policy dict, its sizes checked against its task's env
-    (`io.check_policy_fits`: CheckpointError, one line)."""
-    from .io import check_policy_fits
-
+    (`observations.policy_env`: CheckpointError, one line)."""
     obs = policy_obs(pol)
-    env = E.make_env(pol["env"], obs=obs)
+    env = policy_env(pol, path)
     try:
-        first = env._get_obs()
-        check_policy_fits(
-            pol,
-            path,
-            first["observation"].size,
-            first["desired_goal"].size,
-            env.action_space.shape[0],
-        )
         full = E.obs_names(env, full=True)
         module = DeployedPolicy(
             Policy.from_state_dict(pol),

@@ -162,6 +162,29 @@ def policy_obs(policy: dict) -> str:
     return policy.get("obs", "full")
 
 
+def policy_env(policy: dict, path: str, seed: int | None = None):
+    """The env a policy dict runs in: its task, made with the observation set it was
+    trained on, its sizes checked against the policy's (`io.check_policy_fits`:
+    CheckpointError, one line, naming `path`). The caller closes it."""
+    from . import envs as E
+    from .io import check_policy_fits
+
+    env = E.make_env(policy["env"], seed=seed, obs=policy_obs(policy))
+    first = env._get_obs()
+    try:
+        check_policy_fits(
+            policy,
+            path,
+            first["observation"].size,
+            first["desired_goal"].size,
+            env.action_space.shape[0],
+        )
+    except Exception:
+        env.close()
+        raise
+    return env
+
+
 def on_full(act, index: np.ndarray):
     """`act(o, g)` of a policy that sees the entries `index` of the observation, as a
     function of the full observation: for rollouts that record (or perturb) the full

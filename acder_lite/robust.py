@@ -69,8 +69,8 @@ import numpy as np
 
 from . import envs as E
 from .config import ENV_IDS, OBJECT_ENVS, OBS_SETS, ConfigError
-from .io import CheckpointError, check_policy_fits, load_torch, write_csv, write_json
-from .observations import indices, policy_obs
+from .io import CheckpointError, load_torch, write_csv, write_json
+from .observations import indices, policy_env, policy_obs
 from .rollout import Policy, run_episodes
 
 
@@ -598,16 +598,7 @@ def policy_act(pol: dict, path: str, env_id: str | None = None, obs: str | None 
             f"was trained on obs={trained_obs!r}; allowed: --obs "
             f"{trained_obs} (or leave it out)"
         )
-    env = E.make_env(pol["env"], obs=trained_obs)
-    first = env._get_obs()
-    check_policy_fits(
-        pol,
-        path,
-        first["observation"].size,
-        first["desired_goal"].size,
-        env.action_space.shape[0],
-    )
-    env.close()
+    policy_env(pol, path).close()
     return Policy.from_state_dict(pol), trained_obs
 
 
