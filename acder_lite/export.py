@@ -207,6 +207,54 @@ def export_torchscript(pol: dict, out: str, source: str = "") -> dict:
     return meta
 
 
+ROBOT_SIDE = r"""
+import json, sys
+import torch
+extra = {"acder_lite.json": ""}
+m = torch.jit.load(sys.argv[1], _extra_files=extra)
+x = torch.load(sys.argv[2])
+with torch.no_grad():
+    u = m(x["o"], x["g"])
+ours = sorted(k for k in sys.modules if k.split(".")[0] == "acder_lite")
+torch.save({"u": u, "meta": json.loads(extra["acder_lite.json"]), "imported": ours},
+           sys.argv[3])
+"""
+"""What a robot-side program does with an exported file: torch only."""
+
+
+def run_standalone(path: str, o, g, timeout: float = 120.0) -> dict:
+    """Load the TorchScript file `path` in a fresh Python process that can only import
+    torch's world (another folder, no PYTHONPATH to this repository; `ROBOT_SIDE`) and
+    act on observations `o` and goals `g` (numpy, batched). Returns dict(u: numpy
+    actions, meta: the file's metadata, imported: the acder_lite modules that process
+    imported, which should be none). RuntimeError with the child's stderr if it
+    fails."""
+    import subprocess
+    import sys
+    import tempfile
+
+    import numpy as np
+
+    with tempfile.TemporaryDirectory() as tmp:
+        x = {"o": torch.from_numpy(np.asarray(o)), "g": torch.from_numpy(np.asarray(g))}
+        torch.save(x, os.path.join(tmp, "in.pt"))
+        with open(os.path.join(tmp, "robot.py"), "w") as f:
+            f.write(ROBOT_SIDE)
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+        p = subprocess.run(
+            [sys.executable, "robot.py", os.path.abspath(path), "in.pt", "out.pt"],
+            cwd=tmp,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+        )
+        if p.returncode != 0:
+            raise RuntimeError(f"the robot-side process failed: {p.stderr.strip()}")
+        out = torch.load(os.path.join(tmp, "out.pt"))
+    return dict(u=out["u"].numpy(), meta=out["meta"], imported=out["imported"])
+
+
 def check_onnx() -> None:
     """ConfigError (one line) unless torch.onnx.export can run: onnx and onnxscript."""
     try:

@@ -260,3 +260,35 @@ def plot_statistic(ax, curves: list[report.SeedCurve], threshold: float):
         ax.axvline(hit, color="C4", lw=0.6)
     style_axes(ax, threshold)
     return hit
+
+
+def plot_block_paths(ax, ep: dict, env) -> None:
+    """An episode of a block task seen from above: the gripper's path, each block's path
+    in the colour the env's XML gives it, each target (its first goal) with its
+    `distance_threshold` circle in the target's colour. `ep` is one env's arrays of
+    `rollout.run_episodes` (o, ag, g); `env` the (unwrapped) env it ran in."""
+    import matplotlib.pyplot as plt
+
+    from . import viz
+
+    model, k_blocks = env.model, ep["ag"].shape[-1] // 3
+    ax.plot(ep["o"][:, 0], ep["o"][:, 1], ".-", color="0.6", ms=3, label="gripper")
+    for k in range(k_blocks):
+        block = viz.geom_rgba(model, model.geom(f"object{k}").id)[:3]
+        target = model.site_rgba[model.site(f"target{k}").id][:3]
+        xy = ep["g"][0, 3 * k : 3 * k + 2]
+        ax.plot(
+            *ep["ag"][:, 3 * k : 3 * k + 2].T,
+            "s-",
+            ms=3,
+            color=block,
+            label=f"block {k}",
+        )
+        ax.plot(*xy, "*", ms=15, color=target, label=f"target {k}")
+        ax.add_patch(
+            plt.Circle(xy, env.distance_threshold, color=target, fill=False, ls="--")
+        )
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_aspect("equal")
+    ax.legend(fontsize=8, loc="best")

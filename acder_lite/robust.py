@@ -528,6 +528,25 @@ def weakest(result: dict) -> dict:
     return min(result["rows"], key=lambda r: r["successes"])
 
 
+def reading(label: str, result: dict | None) -> str:
+    """One clause reading a bench: the policy `label`'s nominal count and its weakest
+    level ("not trained yet" for None)."""
+    name = label.replace(" ", "-")
+    if result is None:
+        return f"the {name} policy is not trained yet"
+    nom, low = result["rows"][0], weakest(result)
+    head = (
+        f"the {name} policy succeeds in {nom['successes']} of {nom['trials']} trials "
+        "unperturbed"
+    )
+    if low["successes"] == nom["successes"]:
+        return head + " and as often at every perturbed level"
+    return (
+        head + f" and in {low['successes']} at its weakest, "
+        f"`{low['knob']}` = {low['level']:g} {low['unit']}"
+    )
+
+
 def side_by_side(results: dict[str, dict]) -> str:
     """A Markdown table of several benches: a row per (knob, level) in the order the
     benches met them, a column per bench (`results`: {column label: `run_bench`

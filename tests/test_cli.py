@@ -11,23 +11,10 @@ import pytest
 
 from conftest import ROOT
 
-TINY = [
-    "--workers",
-    "1",
-    "--cycles",
-    "2",
-    "--updates-per-cycle",
-    "2",
-    "--batch-size",
-    "16",
-    "--test-episodes",
-    "1",
-    "--hidden",
-    "16",
-    "--threads",
-    "1",
-    "--quiet",
-]
+TINY = (
+    "--workers 1 --cycles 2 --updates-per-cycle 2 --batch-size 16 "
+    "--test-episodes 1 --hidden 16 --threads 1 --quiet"
+).split()
 
 
 def one_line_error(p, *needles):

@@ -21,35 +21,11 @@ from acder_lite.trainer import Trainer
 from conftest import tiny_config
 from test_trainer import rows_of
 
-TINY = [
-    "--env",
-    "FetchPush-v4",
-    "--method",
-    "acder",
-    "--seed",
-    "0",
-    "--epochs",
-    "2",
-    "--cycles",
-    "2",
-    "--workers",
-    "2",
-    "--updates-per-cycle",
-    "2",
-    "--test-episodes",
-    "1",
-    "--batch-size",
-    "16",
-    "--hidden",
-    "16",
-    "--sicm-hidden",
-    "16",
-    "--buffer-size",
-    "1000",
-    "--threads",
-    "1",
-    "--quiet",
-]
+TINY = (
+    "--env FetchPush-v4 --method acder --seed 0 --epochs 2 --cycles 2 "
+    "--workers 2 --updates-per-cycle 2 --test-episodes 1 --batch-size 16 "
+    "--hidden 16 --sicm-hidden 16 --buffer-size 1000 --threads 1 --quiet"
+).split()
 
 
 def test_auto_follows_cuda(monkeypatch):

@@ -3,9 +3,6 @@ nothing but torch, the simplified-state selection baked in; ONNX when its packag
 there."""
 
 import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -13,7 +10,7 @@ import torch
 
 from acder_lite import envs as E
 from acder_lite.core import Actor
-from acder_lite.export import META_FILE, build, export_torchscript
+from acder_lite.export import META_FILE, build, export_torchscript, run_standalone
 from acder_lite.normalizer import Normalizer
 from acder_lite.observations import simplified_indices
 from acder_lite.rollout import Policy
@@ -98,42 +95,16 @@ def test_wrong_widths_are_refused(tmp_path):
         m(torch.zeros(11), torch.zeros(6))
 
 
-ROBOT_SIDE = r"""
-import json, sys
-import torch
-extra = {"acder_lite.json": ""}
-m = torch.jit.load(sys.argv[1], _extra_files=extra)
-x = torch.load(sys.argv[2])
-with torch.no_grad():
-    u = m(x["o"], x["g"])
-ours = sorted(k for k in sys.modules if k.split(".")[0] == "acder_lite")
-torch.save({"u": u, "meta": json.loads(extra["acder_lite.json"]), "imported": ours},
-           sys.argv[3])
-"""
-
-
 def test_loads_in_a_process_without_acder_lite(tmp_path):
     """A robot-side program: torch only, another folder, no PYTHONPATH to the repo."""
     pol = policy_dict("FetchPush-v4", "simplified")
     path = tmp_path / "push.ts"
     export_torchscript(pol, str(path), "policy.pt")
     o, g = inputs(25, 3)
-    torch.save({"o": torch.from_numpy(o), "g": torch.from_numpy(g)}, tmp_path / "in.pt")
-    (tmp_path / "robot.py").write_text(ROBOT_SIDE)
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    p = subprocess.run(
-        [sys.executable, "robot.py", str(path), "in.pt", "out.pt"],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert p.returncode == 0, p.stderr
-    out = torch.load(tmp_path / "out.pt")
+    out = run_standalone(str(path), o, g)
     assert out["imported"] == []
     want = Policy.from_state_dict(pol)(o[:, :11], g)
-    assert np.abs(out["u"].numpy() - want).max() <= 1e-6
+    assert np.abs(out["u"] - want).max() <= 1e-6
     meta = out["meta"]
     assert (meta["env"], meta["obs"]) == ("FetchPush-v4", "simplified")
     assert meta["source"] == "policy.pt" and len(meta["obs_names"]) == 11

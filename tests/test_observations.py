@@ -144,29 +144,11 @@ def test_simplified_trainer_on_the_two_block_push():
     assert np.isfinite(tr.rows[-1]["critic_loss"])
 
 
-TINY = [
-    "--workers",
-    "1",
-    "--cycles",
-    "2",
-    "--updates-per-cycle",
-    "2",
-    "--test-episodes",
-    "1",
-    "--batch-size",
-    "16",
-    "--hidden",
-    "16",
-    "--sicm-hidden",
-    "16",
-    "--buffer-size",
-    "5000",
-    "--stop-patience",
-    "0",
-    "--threads",
-    "1",
-    "--quiet",
-]
+TINY = (
+    "--workers 1 --cycles 2 --updates-per-cycle 2 --test-episodes 1 "
+    "--batch-size 16 --hidden 16 --sicm-hidden 16 --buffer-size 5000 "
+    "--stop-patience 0 --threads 1 --quiet"
+).split()
 
 
 def test_simplified_training_end_to_end(cli, tmp_path, capsys):

@@ -23,6 +23,7 @@ from acder_lite.robust import (
     side_by_side,
     weakest,
     wilson_interval,
+    reading,
 )
 
 from test_cli import one_line_error
@@ -92,6 +93,13 @@ def test_side_by_side_puts_benches_in_columns():
     assert len(lines) == 2 + 3  # delay 0, delay 2, goal noise 0.01
     low = weakest(reach)
     assert low["successes"] == min(r["successes"] for r in reach["rows"])
+    assert reading("full state", None) == "the full-state policy is not trained yet"
+    text, nom = reading("controller", reach), reach["rows"][0]["successes"]
+    assert text.startswith(f"the controller policy succeeds in {nom} of 3 trials")
+    if low["successes"] < nom:
+        assert f"in {low['successes']} at its weakest, `action_delay` = 2 steps" in text
+    else:
+        assert text.endswith("as often at every perturbed level")
 
 
 def test_wilson_interval_hand_worked():

@@ -133,3 +133,28 @@ def test_seed_crossings_reads_each_seeds_first_crossing():
     assert out[0] == dict(seed=0, hit=None, best=0.3, episodes=800.0)
     assert out[1] == dict(seed=1, hit=800.0, best=0.96, episodes=1200.0)
     assert seed_crossings(runs, "FetchPush-v4", "her-per", 0.95) == []
+
+
+def test_plot_block_paths_draws_each_block_and_target_in_its_colour():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from acder_lite.plots import plot_block_paths
+    from acder_lite.rollout import run_episodes
+
+    for env_id, k in (("FetchPush-v4", 1), ("FetchPushMultiStep-v0", 2)):
+        env = E.make_env(env_id, seed=0)
+        rng = np.random.default_rng(0)
+        ep = run_episodes([env], lambda o, g: rng.uniform(-1, 1, (1, 4)), 5)
+        ep = {key: v[0] for key, v in ep.items()}
+        fig, ax = plt.subplots()
+        plot_block_paths(ax, ep, env)
+        lines = ax.get_lines()
+        assert len(lines) == 1 + 2 * k and len(ax.patches) == k
+        block = viz.geom_rgba(env.model, env.model.geom(f"object{k - 1}").id)[:3]
+        assert np.allclose(matplotlib.colors.to_rgb(lines[-2].get_color()), block)
+        assert np.allclose(lines[-1].get_xydata()[0], ep["g"][0, 3 * k - 3 : 3 * k - 1])
+        plt.close(fig)
+        env.close()
