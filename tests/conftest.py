@@ -30,6 +30,13 @@ def tiny_config(**kw) -> Config:
     return Config(**base)
 
 
+def networks(tr) -> list:
+    """Every network a trainer holds: actor, critic, their targets, and the curiosity
+    model (None for methods without one)."""
+    a = tr.agent
+    return [a.actor, a.critic, a.actor_targ, a.critic_targ, tr.curiosity]
+
+
 def run_cli(*args, timeout=300, **kw):
     env = dict(os.environ, PYTHONPATH=ROOT)
     return subprocess.run(

@@ -65,22 +65,10 @@ def test_protocol_settings_reach_config_json(cli, tmp_path):
 
     out = tmp_path / "run"
     p = cli(
-        "train",
-        "--env",
-        "FetchReach-v4",
-        "--method",
-        "acder",
-        "--epochs",
-        "1",
+        *"train --env FetchReach-v4 --method acder --epochs 1".split(),
         *TINY,
-        "--target-clip",
-        "wide",
-        "--sicm-input",
-        "raw",
-        "--init",
-        "torch",
-        "--out",
-        str(out),
+        *"--target-clip wide --sicm-input raw --init torch".split(),
+        *("--out", str(out)),
     )
     assert p.returncode == 0, p.stderr
     cfg = json.loads((out / "config.json").read_text())["config"]
@@ -137,19 +125,8 @@ def test_ctrl_c_leaves_a_checkpoint_to_resume(tmp_path):
     out = tmp_path / "run"
     env = dict(os.environ, PYTHONPATH=ROOT)
     p = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "acder_lite",
-            "train",
-            "--env",
-            "FetchReach-v4",
-            "--epochs",
-            "50",
-            *TINY,
-            "--out",
-            str(out),
-        ],
+        [sys.executable, *"-m acder_lite train --env FetchReach-v4 --epochs 50".split()]
+        + [*TINY, "--out", str(out)],
         cwd=ROOT,
         env=env,
         stdout=subprocess.PIPE,

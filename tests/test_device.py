@@ -18,7 +18,7 @@ from acder_lite.config import Config, ConfigError
 from acder_lite.io import load_torch
 from acder_lite.trainer import Trainer
 
-from conftest import tiny_config
+from conftest import networks, tiny_config
 from test_trainer import rows_of
 
 TINY = (
@@ -114,13 +114,7 @@ def test_the_update_runs_on_the_trainers_device(method):
         and tr.policy.device == want
         and tr.agent.device == want
     )
-    nets = [
-        tr.agent.actor,
-        tr.agent.critic,
-        tr.agent.actor_targ,
-        tr.agent.critic_targ,
-        tr.curiosity,
-    ]
+    nets = networks(tr)
     opts = [tr.agent.pi_opt, tr.agent.q_opt] + (
         [tr.curiosity.opt] if tr.curiosity else []
     )

@@ -156,18 +156,9 @@ def test_simplified_training_end_to_end(cli, tmp_path, capsys):
     and the motion diagnosis read the policy's set from policy.pt; a resume keeps it."""
     run = tmp_path / "run"
     p = cli(
-        "train",
-        "--env",
-        "FetchPush-v4",
-        "--method",
-        "acder",
-        "--obs",
-        "simplified",
-        "--epochs",
-        "1",
+        *"train --env FetchPush-v4 --method acder --obs simplified --epochs 1".split(),
         *TINY,
-        "--out",
-        str(run),
+        *("--out", str(run)),
     )
     assert p.returncode == 0, p.stderr
     config = json.loads((run / "config.json").read_text())["config"]

@@ -46,33 +46,11 @@ def test_bf16_cost_is_a_measured_ratio():
 def test_train_records_the_choice_and_warns(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(precision, "native_bf16", lambda: (False, "no AVX512-BF16"))
     monkeypatch.setattr(precision, "bf16_cost", lambda: 17.0)
-    tiny = [
-        "--env",
-        "FetchReach-v4",
-        "--method",
-        "her",
-        "--seed",
-        "0",
-        "--epochs",
-        "1",
-        "--cycles",
-        "1",
-        "--workers",
-        "1",
-        "--updates-per-cycle",
-        "1",
-        "--test-episodes",
-        "1",
-        "--batch-size",
-        "8",
-        "--hidden",
-        "8",
-        "--buffer-size",
-        "1000",
-        "--threads",
-        "1",
-        "--quiet",
-    ]
+    tiny = (
+        "--env FetchReach-v4 --method her --seed 0 --epochs 1 --cycles 1 --workers 1 "
+        "--updates-per-cycle 1 --test-episodes 1 --batch-size 8 --hidden 8 "
+        "--buffer-size 1000 --threads 1 --quiet"
+    ).split()
     assert cli.main(["train", *tiny, "--out", str(tmp_path / "a")]) == 0
     cfg = json.loads((tmp_path / "a" / "config.json").read_text())["config"]
     assert (cfg["update_dtype"], cfg["update_dtype_why"]) == (

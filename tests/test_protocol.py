@@ -14,7 +14,7 @@ from acder_lite.config import METHODS, Config, upgrade_legacy
 from acder_lite.core import mlp
 from acder_lite.trainer import Trainer, target_clip
 
-from conftest import ROOT, tiny_config
+from conftest import ROOT, networks, tiny_config
 
 V1 = os.path.join(ROOT, "experiments", "protocol-v1")
 
@@ -118,13 +118,7 @@ def test_torch_init_differs():
 @pytest.mark.parametrize("init", ["xavier", "torch"])
 def test_every_network_of_a_run_gets_its_init(init):
     tr = Trainer(tiny_config(method="acder", env="FetchPush-v4", init=init))
-    nets = [
-        tr.agent.actor,
-        tr.agent.critic,
-        tr.agent.actor_targ,
-        tr.agent.critic_targ,
-        tr.curiosity,
-    ]
+    nets = networks(tr)
     layers = [layer for net in nets for layer in _linears(net)]
     zero_bias = [bool((layer.bias == 0).all()) for layer in layers]
     in_bound = [

@@ -18,6 +18,10 @@ from acder_lite import sweep as S
 ROOT = Path(__file__).resolve().parent.parent
 
 
+REACH_HER_0 = "--envs FetchReach-v4 --methods her --seeds 0 --results".split()
+"""A one-cell grid's options, up to the results folder."""
+
+
 def parse(argv):
     p = argparse.ArgumentParser()
     S.add_arguments(p)
@@ -102,21 +106,8 @@ def test_dry_run(grid, capsys):
 
 def test_train_argv(grid):
     args = parse(
-        [
-            "--envs",
-            "FetchReach-v4",
-            "--methods",
-            "her",
-            "--seeds",
-            "0",
-            "--results",
-            str(grid),
-            "--epochs",
-            "3",
-            "--eval-every-cycles",
-            "5",
-            "--train-args=--cycles 2",
-        ]
+        [*REACH_HER_0, str(grid), *"--epochs 3 --eval-every-cycles 5".split()]
+        + ["--train-args=--cycles 2"]
     )
     assert S.check_args(args) is None
     assert args.threads == 1 and args.jobs == max(1, os.cpu_count() or 1)
@@ -201,18 +192,7 @@ def test_argument_errors(tmp_path, capsys, argv, msg):
 
 def test_results_folder_that_is_a_file(tmp_path, capsys):
     (tmp_path / "results").write_text("not a folder")
-    args = parse(
-        [
-            "--envs",
-            "FetchReach-v4",
-            "--methods",
-            "her",
-            "--seeds",
-            "0",
-            "--results",
-            str(tmp_path / "results"),
-        ]
-    )
+    args = parse([*REACH_HER_0, str(tmp_path / "results")])
     assert S.run(args) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "is a file" in err
@@ -570,23 +550,8 @@ def test_ray_retries_a_killed_worker_from_its_checkpoint(tmp_path):
     assert len(starts) == 2 and "--out" in starts[0] and "--resume" in starts[1]
 
     ref = tmp_path / "ref"
-    argv = [
-        "train",
-        "--env",
-        "FetchReach-v4",
-        "--method",
-        "her",
-        "--seed",
-        "0",
-        "--out",
-        str(ref),
-        "--epochs",
-        str(epochs),
-        "--threads",
-        "1",
-        "--quiet",
-        *TINY.split(),
-    ]
+    argv = "train --env FetchReach-v4 --method her --seed 0 --threads 1 --quiet".split()
+    argv += ["--out", str(ref), "--epochs", str(epochs), *TINY.split()]
     assert (
         subprocess.run(
             [sys.executable, "-m", "acder_lite", *argv], env=_env(), timeout=300
