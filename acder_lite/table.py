@@ -27,17 +27,17 @@ from pathlib import Path
 from .report import (
     ABLATIONS,
     PAPER_EPISODES_PER_EPOCH,
-    PAPER_TABLE_I,
-    SUCCESS_TOL,
+    PAPER_TABLE_I,  # noqa: F401
+    SUCCESS_TOL,  # noqa: F401
     TASKS,  # noqa: F401
     CellStat,
     RatioStat,
-    episodes_to_threshold,
+    episodes_to_threshold,  # noqa: F401
     grid_cells,
-    learning_curves,
+    learning_curves,  # noqa: F401
     ratios,
     summarize,
-    threshold,
+    threshold,  # noqa: F401
 )
 from .runs import how_ended, load_runs, planned_cells, planned_epochs, read_progress  # noqa: F401
 

@@ -1,23 +1,11 @@
 """Side measurement for experiments/speed:
 in-place ReLU against today's, interleaved blocks."""
 
-import sys, time
-import torch
+import time
 from torch import nn
-from acder_lite.config import Config
-from acder_lite.trainer import Trainer
+from common import args, warm_trainer
 
-threads = int(sys.argv[1]) if len(sys.argv) > 1 else 1
-cfg = Config(
-    env="FetchPush-v4",
-    method="her",
-    workers=4,
-    threads=threads,
-    seed=0,
-    update_dtype="float32",
-)
-tr = Trainer(cfg)
-tr.train_cycle()
+tr = warm_trainer(*args())
 relus = [
     m
     for net in (

@@ -1,27 +1,15 @@
 """Side measurement (moves floats: not for the code path):
 torch.compile of the four MLPs."""
 
-import sys, time
+import time
 import torch
-from acder_lite.config import Config
-from acder_lite.trainer import Trainer
+from common import args, warm_trainer
 
-threads = int(sys.argv[1]) if len(sys.argv) > 1 else 1
-method = sys.argv[2] if len(sys.argv) > 2 else "her"
+method, threads = args()
 
 
 def make():
-    cfg = Config(
-        env="FetchPush-v4",
-        method=method,
-        workers=4,
-        threads=threads,
-        seed=0,
-        update_dtype="float32",
-    )
-    tr = Trainer(cfg)
-    tr.train_cycle()
-    return tr
+    return warm_trainer(method, threads)
 
 
 eager, comp = make(), make()

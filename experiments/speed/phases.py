@@ -1,24 +1,13 @@
 """Side measurement for experiments/speed:
 the update step taken apart, CPU time per phase."""
 
-import sys, time
+import time
 import torch
-from acder_lite.config import Config
-from acder_lite.trainer import Trainer
 from acder_lite.ddpg import compute_loss_q, compute_loss_pi
+from common import args, warm_trainer
 
-method = sys.argv[1] if len(sys.argv) > 1 else "her"
-threads = int(sys.argv[2]) if len(sys.argv) > 2 else 1
-cfg = Config(
-    env="FetchPush-v4",
-    method=method,
-    workers=4,
-    threads=threads,
-    seed=0,
-    update_dtype="float32",
-)
-tr = Trainer(cfg)
-tr.train_cycle()
+tr = warm_trainer(*args())
+cfg = tr.cfg
 for _ in range(3):
     tr.update_step()
 N = 30
