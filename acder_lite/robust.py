@@ -621,6 +621,20 @@ def policy_act(pol: dict, path: str, env_id: str | None = None, obs: str | None 
     return Policy.from_state_dict(pol), trained_obs
 
 
+def perturbed_policy(path: str, env, setting: dict, seed: int) -> Perturbed:
+    """The policy of run folder or file `path`, acting on `env` (its task) under
+    `setting` (knob -> level; knobs left out are nominal), its noise drawn as a bench
+    of that `seed` draws its own ([NOISE_STREAM, seed]): the book's scenes. The model
+    knobs (friction, mass) are the caller's (`scaled_model`)."""
+    act, obs = policy_act(*load_policy(path), env_id=env.spec.id)
+    return Perturbed(
+        act,
+        Layout.of(env, obs),
+        dict(nominal(), **setting),
+        np.random.default_rng([NOISE_STREAM, seed]),
+    )
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "policy",

@@ -16,8 +16,11 @@ from acder_lite.robust import (
     Bench,
     Layout,
     Perturbed,
+    load_policy,
     nominal,
     parse_perturb,
+    perturbed_policy,
+    policy_act,
     run_bench,
     scaled_model,
     side_by_side,
@@ -335,3 +338,20 @@ def test_cli_bad_input_is_one_line(cli, reach_policy, args, needles):
 
 def test_cli_missing_policy(cli, tmp_path):
     one_line_error(cli("robust", str(tmp_path)), "neither policy.pt nor checkpoint.pt")
+
+
+def test_perturbed_policy_is_the_policy_under_the_setting(reach_policy):
+    """The book's scene helper: nominal is the policy itself, a knob changes what it is
+    shown, the same seed draws the same noise, another task is one ConfigError."""
+    env = E.make_env("FetchReach-v4", seed=1)
+    d = env._get_obs()
+    o, g = d["observation"][None], d["desired_goal"][None]
+    act, _ = policy_act(*load_policy(str(reach_policy)))
+    same = perturbed_policy(str(reach_policy), env, {}, seed=3)
+    assert np.array_equal(same(o, g), act(o.astype(np.float32), g.astype(np.float32)))
+    noisy = [perturbed_policy(str(reach_policy), env, dict(goal_noise=0.05), 3)]
+    noisy.append(perturbed_policy(str(reach_policy), env, dict(goal_noise=0.05), 3))
+    a, b = noisy[0](o, g), noisy[1](o, g)
+    assert np.array_equal(a, b) and not np.array_equal(a, same(o, g))
+    with pytest.raises(ConfigError, match="not the policy's task"):
+        perturbed_policy(str(reach_policy), E.make_env("FetchPush-v4"), {}, 3)
