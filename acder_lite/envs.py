@@ -51,7 +51,9 @@ def _import_robotics():
     return gym
 
 
-def make_env(env_id: str, seed: int | None = None, obs: str = "full"):
+def make_env(
+    env_id: str, seed: int | None = None, obs: str = "full", fast: bool = True
+):
     """Build a goal-based Fetch env (the unwrapped MuJoCo env) and seed it.
 
     `obs` is the observation set it gives (`Config.obs`): "full" (the env as
@@ -59,6 +61,11 @@ def make_env(env_id: str, seed: int | None = None, obs: str = "full"):
     `acder_lite.observations`). Raises ConfigError for an id that is not a known Fetch
     task or whose observation is not the goal-based dict (observation, achieved_goal,
     desired_goal), or for an unknown `obs`.
+
+    `fast` (the default) puts `acder_lite.fastobs`' methods on the env: `_get_obs`,
+    `_set_action` and `_step_callback` without gymnasium-robotics' per-call name
+    lookups, the same float64 numbers bit for bit; `fast=False` keeps the env's own
+    (the reference `tests/test_fast_env.py` compares against).
     """
     if (
         obs != "full"
@@ -80,6 +87,10 @@ def make_env(env_id: str, seed: int | None = None, obs: str = "full"):
             "(needs observation, achieved_goal, desired_goal)"
         )
     env = env.unwrapped
+    if fast:  # before the first reset, so it too reads the fast _get_obs
+        from .fastobs import install
+
+        install(env)
     env.reset(seed=seed)
     if obs != "full":
         from .observations import select
