@@ -21,25 +21,16 @@ import math
 import sys
 from pathlib import Path
 
-# Also imported from here by the book, the trainer and tests/test_trainer.py:
-# PAPER_TABLE_I, TASKS, SUCCESS_TOL, threshold, episodes_to_threshold, learning_curves
-# (report) and load_runs, read_progress, planned_epochs, how_ended (runs).
 from .report import (
     ABLATIONS,
     PAPER_EPISODES_PER_EPOCH,
-    PAPER_TABLE_I,  # noqa: F401
-    SUCCESS_TOL,  # noqa: F401
-    TASKS,  # noqa: F401
     CellStat,
     RatioStat,
-    episodes_to_threshold,  # noqa: F401
     grid_cells,
-    learning_curves,  # noqa: F401
     ratios,
     summarize,
-    threshold,  # noqa: F401
 )
-from .runs import how_ended, load_runs, planned_cells, planned_epochs, read_progress  # noqa: F401
+from .runs import load_runs, planned_cells
 
 METHOD_LABELS = {
     "ddpg": "DDPG",

@@ -319,7 +319,7 @@ def test_minibatch_errors_match_the_trainers_intrinsic_reward():
 @pytest.mark.parametrize("sicm_input", ["normalised", "raw"])
 def test_episode_errors_are_eq4_of_each_step(sicm_input):
     from acder_lite.rewards import intrinsic_reward
-    from acder_lite.trainer import run_episodes
+    from acder_lite.rollout import run_episodes
 
     tr = _push_trainer(sicm_input=sicm_input)
     ep = run_episodes(tr.envs, tr.explore_act, tr.T)

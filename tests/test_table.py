@@ -109,28 +109,28 @@ def test_episodes_to_threshold():
         dict(episodes=80.0, test_success=0.95),
         dict(episodes=120.0, test_success=1.0),
     ]
-    assert T.episodes_to_threshold(rows, 0.95) == 80.0
-    assert T.episodes_to_threshold(rows, 1.0) == 120.0
-    assert T.episodes_to_threshold(rows[:2], 1.0) is None
-    assert T.episodes_to_threshold([], 0.5) is None
+    assert RE.episodes_to_threshold(rows, 0.95) == 80.0
+    assert RE.episodes_to_threshold(rows, 1.0) == 120.0
+    assert RE.episodes_to_threshold(rows[:2], 1.0) is None
+    assert RE.episodes_to_threshold([], 0.5) is None
 
 
 def test_paper_table_and_thresholds():
-    assert T.PAPER_TABLE_I["acder"] == {
+    assert RE.PAPER_TABLE_I["acder"] == {
         "FetchReach-v4": 400,
         "FetchPush-v4": 2200,
         "FetchPickAndPlace-v4": 5200,
     }
-    assert T.PAPER_TABLE_I["her-ebp"]["FetchReach-v4"] is None
+    assert RE.PAPER_TABLE_I["her-ebp"]["FetchReach-v4"] is None
     # one source of truth for the thresholds: the task presets
-    assert {e: T.threshold(e) for e in T.TASKS} == {
-        e: TASK_PRESETS[e]["success_threshold"] for e in T.TASKS
+    assert {e: RE.threshold(e) for e in RE.TASKS} == {
+        e: TASK_PRESETS[e]["success_threshold"] for e in RE.TASKS
     }
     assert T.METHOD_LABELS["her"] == "DDPG+HER" and T.TASK_LABELS[P] == "Push"
 
 
 def test_load_runs(results):
-    runs = T.load_runs(results)
+    runs = RU.load_runs(results)
     by = {(r["env"], r["name"], r["seed"]): r for r in runs}
     assert len(runs) == 4
     her = by[(P, "her", 1)]
@@ -156,7 +156,7 @@ def test_runs_are_grouped_by_folder_not_method(tmp_path):
         "acder",
         "baselines",
     )
-    cells = T.summarize([run])
+    cells = RE.summarize([run])
     assert [(c.name, c.method) for c in cells] == [("acder-baselines-clip", "acder")]
     assert "ACDER with Baselines' clip (protocol v1)" in T.markdown(cells)
     # a run folder given directly is read as one run
@@ -173,20 +173,20 @@ def test_planned_epochs():
     )
     # ended at epoch 18 by a resume: the plan is the first command's --epochs
     assert (
-        T.planned_epochs(
+        RU.planned_epochs(
             dict(config=cfg, command=train + " --epochs 50", resumes=[ended])
         )
         == 50
     )
-    assert T.planned_epochs(dict(config=cfg, command=train + " --epochs=40")) == 40
+    assert RU.planned_epochs(dict(config=cfg, command=train + " --epochs=40")) == 40
     assert (
-        T.planned_epochs(
+        RU.planned_epochs(
             dict(config=cfg, command=train, resumes=[dict(command="x --threads 2")])
         )
         == 18
     )
     assert (
-        T.planned_epochs(
+        RU.planned_epochs(
             dict(config=cfg, command=train + " --epochs-x 7 --out 'a --epochs 9'")
         )
         == 18
@@ -221,7 +221,7 @@ def test_how_ended(tmp_path):
         command="train --epochs 10",
     )
     make_run(tmp_path, P, "e", 0, [0.5], method="her", epochs=10)
-    got = {r["name"]: (r["ended"], T.how_ended(r)) for r in T.load_runs(tmp_path)}
+    got = {r["name"]: (r["ended"], RU.how_ended(r)) for r in RU.load_runs(tmp_path)}
     assert got == {
         "a": ("stop rule", "early stop"),
         "b": ("budget", "full budget"),
@@ -314,7 +314,7 @@ def test_table_json(results, capsys):
     assert her["crossing"] == pytest.approx(6.625) and her[
         "crossing_episodes_paper_units"
     ] == pytest.approx(2650)
-    assert [r["env"] for r in d["ratios"]] == list(T.TASKS)
+    assert [r["env"] for r in d["ratios"]] == list(RE.TASKS)
 
 
 def test_table_exits_2_when_nothing_is_readable(tmp_path, capsys):
@@ -338,7 +338,7 @@ def test_table_exits_2_when_nothing_is_readable(tmp_path, capsys):
 
 
 def test_html_table(results):
-    cells = T.summarize(T.load_runs(results), n_boot=100)
+    cells = RE.summarize(RU.load_runs(results), n_boot=100)
     html = T.to_html(*T.table_rows(cells))
     assert (
         html.startswith("<table><thead><tr><th>Task</th>")
@@ -383,12 +383,12 @@ def test_sentences_for_the_book():
     assert "Slower than full ACDER, as in the paper: ACDER w/o curiosity" in s
     assert "as fast or faster, unlike the paper: ACDER w/o start states" in s
     assert "Faster than DDPG+HER: ACDER w/o start states." in s
-    (r,) = T.ratios([her, acder], tasks=(P,))
+    (r,) = RE.ratios([her, acder], tasks=(P,))
     assert r.ours == pytest.approx(2.9 / 1.9)
     v = T.verdict([r])
     assert (
         "above our 95% interval on Push (5.3 against our 1.5)" in v
         and "does not reproduce" in v
     )
-    assert "cannot say yet" in T.verdict(T.ratios([her], tasks=(P,)))
+    assert "cannot say yet" in T.verdict(RE.ratios([her], tasks=(P,)))
     assert T.sentence(["on Push a", "b"]) == "On Push a; b."

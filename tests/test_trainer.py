@@ -232,7 +232,7 @@ def test_no_curiosity_keeps_r_int_out_of_the_reward():
 )
 def test_stop_reasons(tmp_path, gap, script, reason, episodes):
     import json
-    from acder_lite import table as T
+    from acder_lite import runs as RU
 
     cfg = tiny_config(
         epochs=5,
@@ -249,9 +249,9 @@ def test_stop_reasons(tmp_path, gap, script, reason, episodes):
     done = json.loads((tmp_path / "run" / "done.json").read_text())
     assert (done["stop_reason"], done["episodes"]) == (reason, episodes)
     assert done["stopped_early"] == (reason != "budget")
-    (run,) = T.load_runs(tmp_path)
+    (run,) = RU.load_runs(tmp_path)
     assert (
-        T.how_ended(run)
+        RU.how_ended(run)
         == {
             "gap after first success": "hovering",
             "budget": "full budget",
