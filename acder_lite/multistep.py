@@ -175,6 +175,56 @@ def block_distances(achieved_goal, desired_goal) -> np.ndarray:
     return np.linalg.norm(diff, axis=-1)
 
 
+PUSH_BEHIND = 0.065
+"""Scripted pusher: the gripper centre's distance behind the block centre while pushing
+(half a block and the fingers)."""
+PUSH_LIFT = 0.07
+"""Scripted pusher: height above the blocks while moving round one."""
+
+
+def scripted_push(o: np.ndarray, g: np.ndarray, height_offset: float) -> np.ndarray:
+    """One action of a scripted pusher (nothing learnt), for one observation vector `o`
+    (40) and goal `g` (6), re-planned every step: take the first block more than 2 cm
+    from its target, get behind it on the line target -> block (lifted over the blocks
+    when the gripper must go round one), lower to the block's height
+    (`height_offset`, the env's), push; then the other block. It shows the task can be
+    solved in 100 steps (tests/test_multistep.py, chapter 9)."""
+    grip = o[:3]
+    ag, g = o[3:9].reshape(2, 3), g.reshape(2, 3)  # object{0,1}_pos (OBS_LAYOUT)
+    todo = [i for i in range(2) if np.linalg.norm(ag[i, :2] - g[i, :2]) > 0.02]
+    a = np.zeros(4)
+    if not todo:
+        return a
+    b, t = ag[todo[0], :2], g[todo[0], :2]
+    u = (t - b) / max(np.linalg.norm(t - b), 1e-9)
+    rel = grip[:2] - b
+    along = rel @ u
+    perp = np.linalg.norm(rel - along * u)
+    h, behind = height_offset, b - PUSH_BEHIND * u
+    low = h - 0.005
+    if along < -0.035 and perp < 0.012 and grip[2] < low + 0.02:  # in place: push
+        off_line = behind - grip[:2]  # ... and stay on the line
+        a[:2] = (t - (PUSH_BEHIND - 0.02) * u - grip[:2]) * 10
+        a[:2] += off_line - (off_line @ u) * u
+        a[2] = (low - grip[2]) * 10
+    elif np.linalg.norm(grip[:2] - behind) < 0.01:  # above the spot: lower
+        a[:2], a[2] = (behind - grip[:2]) * 10, (low - grip[2]) * 10
+    elif grip[2] < h + PUSH_LIFT - 0.02:  # lift (first clear of the blocks)
+        near = np.linalg.norm(ag[:, :2] - grip[:2], axis=1).min() < 0.07
+        a[:2], a[2] = (0.0 if near else (behind - grip[:2]) * 10), 1.0
+    else:  # fly to the spot
+        a[:2], a[2] = (behind - grip[:2]) * 10, (h + PUSH_LIFT - grip[2]) * 10
+    return np.clip(a, -1, 1)
+
+
+def scripted_pusher(height_offset: float):
+    """`scripted_push` as a policy of batched (o, g), as `rollout.run_episodes` and
+    `viz.record_rollout` call one: (W, 40), (W, 6) -> (W, 4)."""
+    return lambda o, g: np.stack(
+        [scripted_push(oi, gi, height_offset) for oi, gi in zip(o, g)]
+    )
+
+
 class MujocoFetchPushMultiStepEnv(MujocoFetchEnv, EzPickle):
     """FetchPush with two blocks and two targets; see the module docstring."""
 

@@ -655,6 +655,33 @@ def ratios(cells: list[CellStat], tasks=TASKS) -> list[RatioStat]:
     ]
 
 
+def separated(a: CellStat, b: CellStat) -> bool | None:
+    """The readings' rule (experiments/readings/README.md, fixed before their last
+    seeds were in): two settings are separated when each one's mean-curve crossing lies
+    outside the other's 95% bootstrap interval. None while either lacks a crossing or an
+    interval. Trap: one crossing outside the other's interval is not enough (with 3
+    seeds the intervals are wide and lopsided)."""
+    if any(v is None for v in (a.crossing, b.crossing, a.low, b.low, a.high, b.high)):
+        return None
+
+    def outside(x: float, c: CellStat) -> bool:
+        return not c.low <= x <= c.high
+
+    return outside(a.crossing, b) and outside(b.crossing, a)
+
+
+def choose(a: CellStat, b: CellStat, fallback: str) -> tuple[str | None, bool | None]:
+    """(the setting the readings' rule picks, `separated(a, b)`): where the runs
+    separate `a` and `b`, the one with the earlier crossing; where they do not,
+    `fallback` (the name of the one the paper's text favours); None while undecided."""
+    sep = separated(a, b)
+    if sep is None:
+        return None, None
+    if not sep:
+        return fallback, False
+    return (a.name if a.crossing < b.crossing else b.name), True
+
+
 def learning_curves(runs: list[dict]) -> dict[tuple[str, str], MeanCurve]:
     """The mean curve (epochs) of every (env, name) in `runs`, as Table I reads it."""
     groups: dict[tuple[str, str], list[dict]] = {}

@@ -26,6 +26,7 @@ from .report import (
     PAPER_EPISODES_PER_EPOCH,
     CellStat,
     RatioStat,
+    choose,
     grid_cells,
     ratios,
     summarize,
@@ -354,6 +355,39 @@ def order_sentence(cells: list[CellStat]) -> str:
     if unrun:
         parts.append("not run yet: " + ", ".join(unrun))
     return "; ".join(parts)
+
+
+def choice_sentence(a: CellStat, b: CellStat, fallback: str, why: str) -> str:
+    """What the readings' rule (`report.choose`) makes of `a` and `b`, in words: the
+    two crossings, which lies inside the other's interval, the setting chosen
+    (`fallback`, for `why`, where the runs do not separate them)."""
+    chosen, sep = choose(a, b, fallback)
+    if chosen is None:
+        return (
+            f"The rule cannot be applied yet: {label(a.name)} or {label(b.name)} "
+            "has no mean-curve crossing with an interval."
+        )
+
+    def span(c: CellStat) -> str:
+        return f"{episodes(c.paper_units(c.low))} – {episodes(c.paper_units(c.high))}"
+
+    def where(c: CellStat, other: CellStat) -> str:
+        inside = other.low <= c.crossing <= other.high
+        return (
+            f"{units(c, c.crossing)} {'inside' if inside else 'outside'} {span(other)}"
+        )
+
+    said = (
+        f"The mean curves cross at {units(a, a.crossing)} episodes ({label(a.name)}) "
+        f"and {units(b, b.crossing)} ({label(b.name)}); against the other's 95% "
+        f"interval, {where(a, b)} and {where(b, a)}"
+    )
+    if not sep:
+        return (
+            f"{said}: the runs do not separate them, so the rule falls back on {why}: "
+            f"{label(chosen)}."
+        )
+    return f"{said}: the runs separate them, and {label(chosen)} crosses first."
 
 
 def ablation_sentence(cells: list[CellStat], env: str) -> str:

@@ -334,10 +334,11 @@ class Trainer:
     def curiosity_inputs(
         self, batch: dict, tb: dict
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        """What the curiosity module sees of a minibatch, s = (o, g) and s' = (o2, g):
-        the policy's normalised inputs, or the raw ones clipped to clip_obs
-        (`Config.sicm_input`)."""
-        if self.cfg.sicm_input == "normalised":
+        """What the curiosity module sees of a minibatch, s = (o, g) and s' = (o2, g).
+        S-ICM: the policy's normalised inputs, or the raw ones clipped to clip_obs
+        (`Config.sicm_input`). ICM (her-icm) always the normalised ones: it learns its
+        own features of them, and the readings measured S-ICM's input only."""
+        if self.cfg.sicm_input == "normalised" or not isinstance(self.curiosity, SICM):
             return tb["x"], tb["x2"]
         c = self.cfg.clip_obs
         g = torch.as_tensor(batch["g"], dtype=torch.float32)

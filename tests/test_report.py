@@ -237,3 +237,22 @@ def test_learning_curves_and_grid():
         R.threshold("FetchReach-v4") == 1.0
         and R.threshold("FetchPickAndPlace-v4") == 0.95
     )
+
+
+def _cell(name, crossing, low, high):
+    return R.CellStat(
+        env="FetchPush-v4", name=name, method="acder", threshold=0.95,
+        crossing=crossing, low=low, high=high,
+    )  # fmt: skip
+
+
+def test_the_readings_rule_hand_worked():
+    """Epochs: (a) crosses at 12.7 in [9.0, 12.9]; (b) at 14.8 in [9.7, 16.8]. (b) lies
+    outside (a)'s interval, (a) inside (b)'s: not separated, the fallback wins."""
+    a, b = _cell("a", 12.7, 9.0, 12.9), _cell("b", 14.8, 9.7, 16.8)
+    assert R.separated(a, b) is False and R.choose(a, b, "b") == ("b", False)
+    c = _cell("c", 20.0, 18.0, math.inf)  # beyond the budget counts as an upper end
+    assert R.separated(a, c) is True and R.separated(c, a) is True
+    assert R.choose(c, a, "c") == ("a", True)  # separated: the earlier crossing
+    assert R.separated(a, _cell("d", None, None, None)) is None
+    assert R.choose(a, _cell("d", 14.0, None, None), "a") == (None, None)

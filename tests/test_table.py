@@ -392,3 +392,25 @@ def test_sentences_for_the_book():
     )
     assert "cannot say yet" in T.verdict(RE.ratios([her], tasks=(P,)))
     assert T.sentence(["on Push a", "b"]) == "On Push a; b."
+
+
+def test_choice_sentence_says_what_the_rule_made_of_the_runs():
+    def cell(name, crossing, low, high):
+        return RE.CellStat(
+            env="FetchPush-v4", name=name, method="acder", threshold=0.95,
+            episodes_per_epoch=400.0, crossing=crossing, low=low, high=high,
+        )  # fmt: skip
+
+    a, b = cell("sicm-normalised", 12.5, 9.0, 13.0), cell("sicm-raw", 15.0, 10.0, 17.0)
+    text = T.choice_sentence(a, b, "sicm-raw", "the paper's eta values")
+    assert (
+        "5,000 inside 4,000 – 6,800" in text and "6,000 outside 3,600 – 5,200" in text
+    )
+    assert text.endswith(
+        "falls back on the paper's eta values: ACDER, S-ICM on raw (o, g)."
+    )
+    text = T.choice_sentence(a, cell("sicm-raw", 20.0, 14.0, 22.0), "sicm-raw", "x")
+    assert text.endswith("and ACDER, S-ICM on normalised (o, g) crosses first.")
+    assert "cannot be applied yet" in T.choice_sentence(
+        a, cell("sicm-raw", None, None, None), "sicm-raw", "x"
+    )

@@ -268,6 +268,7 @@ def test_stop_reasons(tmp_path, gap, script, reason, episodes):
         ("acder-no-goal-factor", "normalised"),
         ("acder-no-curiosity", "normalised"),
         ("her-icm", "normalised"),
+        ("her-icm", "raw"),  # ICM sees the normalised inputs whatever sicm_input
     ],
 )
 def test_the_reward_is_shaped_reward_plus_eq4_of_the_curiositys_prediction(
@@ -285,6 +286,8 @@ def test_the_reward_is_shaped_reward_plus_eq4_of_the_curiositys_prediction(
     batch = tr.sample_batch()
     tb = tr.batch_tensors(batch)
     s, s2 = tr.curiosity_inputs(batch, tb)
+    if method == "her-icm":
+        assert s is tb["x"] and s2 is tb["x2"]
     with torch.no_grad():
         if method == "her-icm":
             m = tr.curiosity
@@ -314,8 +317,8 @@ def test_the_reward_is_shaped_reward_plus_eq4_of_the_curiositys_prediction(
 
 
 def test_curiosity_inputs_normalised_or_raw():
-    """S-ICM sees the policy's normalised (o, g) by default; 'raw' gives (o, g) clipped
-    to clip_obs only, with the goal of the row in s and s' alike."""
+    """S-ICM sees the policy's normalised (o, g) with 'normalised'; 'raw' (the
+    default) gives (o, g) clipped to clip_obs only, the row's goal in s and s' alike."""
     import torch
 
     runs = {
