@@ -1,0 +1,74 @@
+"""Compare two sets of runs made by runs.sh, bit for bit: progress.csv without its
+timing column, and every tensor and number of policy.pt. One line a run, `same` or
+`DIFF` with what differs (a key only one policy.pt has is named: a new field moves no
+float, but it is a difference); exit code 1 if any differs.
+
+usage: .venv/bin/python experiments/bit-identity/compare.py BEFORE AFTER
+"""
+
+import csv
+import sys
+from pathlib import Path
+
+import numpy as np
+import torch
+
+TIMING = {"wall_s"}
+
+
+def flat(obj, prefix=""):
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            yield from flat(v, f"{prefix}{k}.")
+    elif isinstance(obj, (list, tuple)):
+        for i, v in enumerate(obj):
+            yield from flat(v, f"{prefix}{i}.")
+    else:
+        yield prefix, obj
+
+
+def rows(path: Path) -> list[dict]:
+    with open(path) as f:
+        return [
+            {k: v for k, v in r.items() if k not in TIMING} for r in csv.DictReader(f)
+        ]
+
+
+def equal(v, w) -> bool:
+    if torch.is_tensor(v):
+        return torch.is_tensor(w) and v.shape == w.shape and torch.equal(v, w)
+    try:
+        return bool(np.array_equal(np.asarray(v), np.asarray(w)))
+    except Exception:  # values numpy cannot hold (None, strings of other lengths)
+        return v == w
+
+
+def differences(a: Path, b: Path) -> list[str]:
+    """What differs between run folders `a` and `b` ([] if nothing)."""
+    if not (b / "progress.csv").exists():
+        return ["no run"]
+    out = (
+        [] if rows(a / "progress.csv") == rows(b / "progress.csv") else ["progress.csv"]
+    )
+    pa = dict(flat(torch.load(a / "policy.pt", weights_only=False)))
+    pb = dict(flat(torch.load(b / "policy.pt", weights_only=False)))
+    out += [f"policy.pt {k} only in one" for k in sorted(set(pa) ^ set(pb))]
+    out += [
+        f"policy.pt {k}" for k in sorted(set(pa) & set(pb)) if not equal(pa[k], pb[k])
+    ]
+    return out
+
+
+def main(before: Path, after: Path) -> int:
+    bad = 0
+    for p in sorted(before.rglob("progress.csv")):
+        run = p.parent.relative_to(before)
+        diff = differences(p.parent, after / run)
+        more = f" (+{len(diff) - 3} more)" if len(diff) > 3 else ""
+        print(f"DIFF {run}: {', '.join(diff[:3])}{more}" if diff else f"same {run}")
+        bad += bool(diff)
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(Path(sys.argv[1]), Path(sys.argv[2])))

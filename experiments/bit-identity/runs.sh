@@ -1,0 +1,28 @@
+#!/bin/bash
+# Tiny seeded runs of every method (FetchPush; ACDER on the multi-step Push too) with the code
+# of the checkout this script sits in, into OUT. Run it before a change and after, then
+# compare.py says, run by run, whether the change moved a float.
+#
+#     experiments/bit-identity/runs.sh /tmp/before    # at the old commit
+#     experiments/bit-identity/runs.sh /tmp/after     # with the change
+#     .venv/bin/python experiments/bit-identity/compare.py /tmp/before /tmp/after
+set -euo pipefail
+OUT=$(realpath -m "${1:?usage: runs.sh OUT}")
+cd "$(dirname "$0")/../.."  # the checkout's root: `python -m` imports its acder_lite
+PY=${PY:-.venv/bin/python}
+# acder-wide-clip: in runs this short, Baselines' target clip [-1/(1-gamma), 0] maps the
+# targets of most rows to 0 (S-ICM's untrained errors put r_int at eta = 0.8), so the
+# networks of `acder` do not see a change of the intrinsic reward; the wide clip lets them.
+for env in FetchPush-v4 FetchPushMultiStep-v0; do
+  for m in her her-icm her-per her-ebp acder acder-wide-clip; do
+    [ "$env" = FetchPushMultiStep-v0 ] && [ "${m%-wide-clip}" != acder ] && continue
+    d=$OUT/$env/$m
+    rm -rf "$d"
+    extra=()
+    [ "$m" = acder-wide-clip ] && extra=(--target-clip wide)
+    nice -n 5 "$PY" -m acder_lite train --env "$env" --method "${m%-wide-clip}" --seed 3 \
+      --out "$d" --workers 2 --cycles 2 --updates-per-cycle 3 --test-episodes 2 \
+      --batch-size 32 --hidden 32 --buffer-size 5000 --stop-patience 0 --epochs 2 \
+      --threads 1 --quiet "${extra[@]}" > /dev/null
+  done
+done
