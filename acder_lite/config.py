@@ -269,7 +269,7 @@ class Config:
     or 'normalised' (o, g), the policy's inputs. The paper does not say;
     experiments/readings/ measured both on Push (3 seeds each): the runs do not separate
     them, so the paper's eta values (0.05 on Reach, 0.8 elsewhere: raw-scale errors)
-    decide (departure 6)."""
+    decide (departure 6). S-ICM only: HER+ICM's ICM always sees the normalised ones."""
     sicm_lr: float = 1e-3
     """Adam learning rate of the forward model (S-ICM or ICM)."""
     pool_size: int = 50

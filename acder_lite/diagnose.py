@@ -149,7 +149,7 @@ def minibatch_errors(trainer, batches: int = 10) -> dict:
 def episode_errors(trainer, ep: dict, eta: float = np.inf) -> np.ndarray:
     """Eq. 4 for every step of whole episodes, shape (W, T), without training the model.
 
-    `ep` holds arrays with a leading env axis, as `acder_lite.trainer.run_episodes`
+    `ep` holds arrays with a leading env axis, as `acder_lite.rollout.run_episodes`
     returns them: o (W, T+1, .), g and u (W, T, .). The model sees them as the trainer
     gives them to it (`Trainer.curiosity_inputs`, so `Config.sicm_input` decides
     normalised or raw); `eta=inf` leaves out the clip and returns the model's error

@@ -16,7 +16,9 @@ are found* is cached. Elementwise IEEE operations (+, -, x dt, the float32 `x 0.
 float32 action, upcasts) give the same bits however they are grouped, so they are free
 to move; everything that is not elementwise is called exactly as gymnasium-robotics
 calls it: the site velocity is `(jac @ qvel) * dt` with a fresh (3, nv) Jacobian from
-`mj_jacSite` (the same BLAS call, so the same summation order), the rotation is
+`mj_jacSite` (the same BLAS call, so the same summation order; an object's jacp and
+jacr come from one call where gymnasium-robotics makes two, which MuJoCo fills with the
+same numbers), the rotation is
 `rotations.mat2euler` of that one site's (3, 3) matrix, `dt` is `n_substeps *
 model.opt.timestep` computed on each call. The ctrl of a position actuator is still
 `qpos + action` (with a blocked gripper the action is 0.0, and -0.0 + 0.0 is +0.0, not a
@@ -196,6 +198,11 @@ def install(env):
     made, unwrapped Fetch env), each only where its class's method is gymnasium-
     robotics' (or multistep's) own; returns `env`. `env.fast_methods`: the names
     installed. Call it before `observations.select`, which wraps `_get_obs`."""
+    if getattr(env, "obs_index", None) is not None or "_get_obs" in vars(env):
+        raise RuntimeError(
+            "fastobs.install: the env's _get_obs is already replaced (an observation "
+            "set?); install first, then observations.select"
+        )
     Fetch, _, _ = _fetch_classes()
     cls = type(env)
     objects = _objects(env)

@@ -659,10 +659,15 @@ def separated(a: CellStat, b: CellStat) -> bool | None:
     """The readings' rule (experiments/readings/README.md, fixed before their last
     seeds were in): two settings are separated when each one's mean-curve crossing lies
     outside the other's 95% bootstrap interval. None while either lacks a crossing or an
-    interval. Trap: one crossing outside the other's interval is not enough (with 3
-    seeds the intervals are wide and lopsided)."""
+    interval (one whose lower end is beyond the budget is none). Traps: one crossing
+    outside the other's interval is not enough (with 3 seeds the intervals are wide and
+    lopsided); equal crossings are never separated, whatever their intervals."""
     if any(v is None for v in (a.crossing, b.crossing, a.low, b.low, a.high, b.high)):
         return None
+    if not (math.isfinite(a.low) and math.isfinite(b.low)):
+        return None
+    if a.crossing == b.crossing:
+        return False
 
     def outside(x: float, c: CellStat) -> bool:
         return not c.low <= x <= c.high

@@ -8,8 +8,8 @@ against the plan file (`<results>/plan.toml`, or `--plan FILE`) where there is o
 `--results experiments/protocol-v1` reads the earlier runs the same way.
 
 This module only renders (markdown, HTML for the book, sentences for its prose) and runs
-the CLI; the names the book and the trainer import from here (`load_runs`,
-`PAPER_TABLE_I`, `episodes_to_threshold`, ...) are the ones of `runs` and `report`.
+the CLI; reading run folders is `runs`' and the statistics are `report`'s (import them
+from there).
 """
 
 from __future__ import annotations
@@ -369,7 +369,10 @@ def choice_sentence(a: CellStat, b: CellStat, fallback: str, why: str) -> str:
         )
 
     def span(c: CellStat) -> str:
-        return f"{episodes(c.paper_units(c.low))} – {episodes(c.paper_units(c.high))}"
+        low = episodes(c.paper_units(c.low))
+        if math.isinf(c.high):
+            return f"{low} or later"
+        return f"{low} – {episodes(c.paper_units(c.high))}"
 
     def where(c: CellStat, other: CellStat) -> str:
         inside = other.low <= c.crossing <= other.high

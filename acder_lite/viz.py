@@ -444,9 +444,9 @@ def save_scene_html(vis, path: str) -> int:
     html = vis.static_html()
     if "https://" in html.split("<script>", 1)[0]:
         raise RuntimeError("scene page references the network")
-    from .io import _atomic
+    from .io import atomic_write
 
-    _atomic(path, lambda f: f.write(html.encode("utf-8")))
+    atomic_write(path, lambda f: f.write(html.encode("utf-8")))
     return os.path.getsize(path)
 
 

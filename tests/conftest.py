@@ -30,6 +30,17 @@ def tiny_config(**kw) -> Config:
     return Config(**base)
 
 
+def push_cell(name: str, crossing, low, high):
+    """A FetchPush CellStat with only a mean-curve crossing and its interval (epochs),
+    for the readings' rule (report.choose) and its sentence (table.choice_sentence)."""
+    from acder_lite.report import CellStat
+
+    return CellStat(
+        env="FetchPush-v4", name=name, method="acder", threshold=0.95,
+        episodes_per_epoch=400.0, crossing=crossing, low=low, high=high,
+    )  # fmt: skip
+
+
 def networks(tr) -> list:
     """Every network a trainer holds: actor, critic, their targets, and the curiosity
     model (None for methods without one)."""

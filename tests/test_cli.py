@@ -67,14 +67,14 @@ def test_protocol_settings_reach_config_json(cli, tmp_path):
     p = cli(
         *"train --env FetchReach-v4 --method acder --epochs 1".split(),
         *TINY,
-        *"--target-clip wide --sicm-input raw --init torch".split(),
+        *"--target-clip wide --sicm-input normalised --init torch".split(),
         *("--out", str(out)),
     )
     assert p.returncode == 0, p.stderr
     cfg = json.loads((out / "config.json").read_text())["config"]
     assert (cfg["target_clip"], cfg["sicm_input"], cfg["init"]) == (
         "wide",
-        "raw",
+        "normalised",
         "torch",
     )
     assert (cfg["success_threshold"], cfg["stop_patience"], cfg["buffer_scope"]) == (

@@ -21,6 +21,7 @@ CASES = [
     ("FetchReach-v4", "full"),
     ("FetchPush-v4", "full"),
     ("FetchPickAndPlace-v4", "full"),
+    ("FetchSlide-v4", "full"),
     ("FetchPushMultiStep-v0", "full"),
     ("FetchPush-v4", "simplified"),
 ]
@@ -98,3 +99,9 @@ def test_a_class_with_its_own_methods_keeps_them():
     assert env.fast_methods == ("_set_action",)
     assert "_get_obs" not in vars(env) and "_step_callback" not in vars(env)
     env.close()
+
+
+def test_install_after_an_observation_set_is_refused():
+    env = E.make_env("FetchPush-v4", seed=0, obs="simplified")
+    with pytest.raises(RuntimeError, match="install first"):
+        install(env)

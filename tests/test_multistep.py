@@ -245,7 +245,7 @@ def test_a_scripted_pusher_solves_seeded_episodes_within_100_steps():
         wins.append(ok)  # success at the last step, as training counts it
         env.close()
     # measured: 5 of these 6 (and 16 of seeds 0-19)
-    assert sum(wins) >= 1, wins
+    assert sum(wins) >= 4, wins
 
 
 def test_the_batched_pusher_is_the_pusher_row_by_row():
@@ -352,3 +352,8 @@ def test_every_method_runs_on_the_multistep_push(method):
     )
     rows = tr.train(progress=False)
     assert len(rows) == 1 and tr.buffer.o.shape[1:] == (101, 40)
+
+
+def test_the_pusher_refuses_a_selected_observation():
+    with pytest.raises(ValueError, match=r"o \(40,\)"):
+        M.scripted_push(np.zeros(17), np.zeros(6), 0.42)

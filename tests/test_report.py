@@ -8,6 +8,8 @@ import pytest
 
 from acder_lite import report as R
 
+from conftest import push_cell
+
 
 def rows(values, first_epoch=1, per_epoch=400):
     """progress.csv rows of one evaluation per epoch."""
@@ -239,20 +241,16 @@ def test_learning_curves_and_grid():
     )
 
 
-def _cell(name, crossing, low, high):
-    return R.CellStat(
-        env="FetchPush-v4", name=name, method="acder", threshold=0.95,
-        crossing=crossing, low=low, high=high,
-    )  # fmt: skip
-
-
 def test_the_readings_rule_hand_worked():
     """Epochs: (a) crosses at 12.7 in [9.0, 12.9]; (b) at 14.8 in [9.7, 16.8]. (b) lies
     outside (a)'s interval, (a) inside (b)'s: not separated, the fallback wins."""
-    a, b = _cell("a", 12.7, 9.0, 12.9), _cell("b", 14.8, 9.7, 16.8)
+    a, b = push_cell("a", 12.7, 9.0, 12.9), push_cell("b", 14.8, 9.7, 16.8)
     assert R.separated(a, b) is False and R.choose(a, b, "b") == ("b", False)
-    c = _cell("c", 20.0, 18.0, math.inf)  # beyond the budget counts as an upper end
+    c = push_cell("c", 20.0, 18.0, math.inf)  # beyond the budget counts as an upper end
     assert R.separated(a, c) is True and R.separated(c, a) is True
     assert R.choose(c, a, "c") == ("a", True)  # separated: the earlier crossing
-    assert R.separated(a, _cell("d", None, None, None)) is None
-    assert R.choose(a, _cell("d", 14.0, None, None), "a") == (None, None)
+    assert R.separated(a, push_cell("d", None, None, None)) is None
+    assert R.choose(a, push_cell("d", 14.0, None, None), "a") == (None, None)
+    tie = push_cell("e", 12.7, 12.7, 12.7)  # equal crossings: never separated
+    assert R.separated(push_cell("f", 12.7, 20.0, 30.0), tie) is False
+    assert R.separated(a, push_cell("g", 14.0, math.inf, math.inf)) is None

@@ -18,7 +18,8 @@ import torch
 
 from acder_lite import io as aio
 from acder_lite.io import CheckpointError, load_torch
-from acder_lite.trainer import Policy, Trainer
+from acder_lite.rollout import Policy
+from acder_lite.trainer import Trainer
 from conftest import ROOT, tiny_config
 from conftest import listening as _listening
 

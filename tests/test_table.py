@@ -4,11 +4,14 @@ on synthetic runs."""
 import argparse
 import csv
 import json
+import math
 
 import pytest
 
 from acder_lite import cli, report as RE, runs as RU, table as T
 from acder_lite.config import TASK_PRESETS
+
+from conftest import push_cell
 
 
 def make_run(
@@ -395,13 +398,10 @@ def test_sentences_for_the_book():
 
 
 def test_choice_sentence_says_what_the_rule_made_of_the_runs():
-    def cell(name, crossing, low, high):
-        return RE.CellStat(
-            env="FetchPush-v4", name=name, method="acder", threshold=0.95,
-            episodes_per_epoch=400.0, crossing=crossing, low=low, high=high,
-        )  # fmt: skip
-
-    a, b = cell("sicm-normalised", 12.5, 9.0, 13.0), cell("sicm-raw", 15.0, 10.0, 17.0)
+    a, b = (
+        push_cell("sicm-normalised", 12.5, 9.0, 13.0),
+        push_cell("sicm-raw", 15.0, 10.0, 17.0),
+    )
     text = T.choice_sentence(a, b, "sicm-raw", "the paper's eta values")
     assert (
         "5,000 inside 4,000 – 6,800" in text and "6,000 outside 3,600 – 5,200" in text
@@ -409,8 +409,13 @@ def test_choice_sentence_says_what_the_rule_made_of_the_runs():
     assert text.endswith(
         "falls back on the paper's eta values: ACDER, S-ICM on raw (o, g)."
     )
-    text = T.choice_sentence(a, cell("sicm-raw", 20.0, 14.0, 22.0), "sicm-raw", "x")
+    text = T.choice_sentence(
+        a, push_cell("sicm-raw", 20.0, 14.0, 22.0), "sicm-raw", "x"
+    )
     assert text.endswith("and ACDER, S-ICM on normalised (o, g) crosses first.")
+    late = push_cell("sicm-raw", 15.0, 10.0, math.inf)
+    assert "outside 4,000 or later" not in T.choice_sentence(a, late, "sicm-raw", "x")
+    assert "5,000 inside 4,000 or later" in T.choice_sentence(a, late, "sicm-raw", "x")
     assert "cannot be applied yet" in T.choice_sentence(
-        a, cell("sicm-raw", None, None, None), "sicm-raw", "x"
+        a, push_cell("sicm-raw", None, None, None), "sicm-raw", "x"
     )

@@ -35,10 +35,17 @@ def rows(path: Path) -> list[dict]:
 
 
 def equal(v, w) -> bool:
+    """Bit for bit; NaN equals NaN (the same NaN written twice is no change)."""
     if torch.is_tensor(v):
-        return torch.is_tensor(w) and v.shape == w.shape and torch.equal(v, w)
+        if not (torch.is_tensor(w) and v.shape == w.shape and v.dtype == w.dtype):
+            return False
+        if torch.equal(v, w):
+            return True
+        both_nan = v.isnan() & w.isnan() if v.is_floating_point() else False
+        return bool(((v == w) | both_nan).all())
     try:
-        return bool(np.array_equal(np.asarray(v), np.asarray(w)))
+        a, b = np.asarray(v), np.asarray(w)
+        return bool(np.array_equal(a, b, equal_nan=a.dtype.kind in "fc"))
     except Exception:  # values numpy cannot hold (None, strings of other lengths)
         return v == w
 
@@ -60,7 +67,17 @@ def differences(a: Path, b: Path) -> list[str]:
 
 
 def main(before: Path, after: Path) -> int:
+    names = {p.parent.relative_to(before) for p in before.rglob("progress.csv")}
+    if not names:
+        print(f"compare.py: no runs under {before}", file=sys.stderr)
+        return 2
     bad = 0
+    for run in sorted(
+        {p.parent.relative_to(after) for p in after.rglob("progress.csv")}
+    ):
+        if run not in names:
+            print(f"DIFF {run}: only in {after}")
+            bad += 1
     for p in sorted(before.rglob("progress.csv")):
         run = p.parent.relative_to(before)
         diff = differences(p.parent, after / run)

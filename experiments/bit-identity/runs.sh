@@ -3,13 +3,17 @@
 # of the checkout this script sits in, into OUT. Run it before a change and after, then
 # compare.py says, run by run, whether the change moved a float.
 #
-#     experiments/bit-identity/runs.sh /tmp/before    # at the old commit
-#     experiments/bit-identity/runs.sh /tmp/after     # with the change
+#     /tmp/old/experiments/bit-identity/runs.sh /tmp/before  # a worktree of the old commit
+#     experiments/bit-identity/runs.sh /tmp/after            # this checkout, with the change
+# (both from this checkout's root, whose .venv they use)
 #     .venv/bin/python experiments/bit-identity/compare.py /tmp/before /tmp/after
 set -euo pipefail
 OUT=$(realpath -m "${1:?usage: runs.sh OUT}")
+# the interpreter: $PY, else the venv of the folder it is called from (a worktree of the
+# old commit has no .venv of its own); absolute, since the next line changes folder
+PY=$(realpath -m "${PY:-.venv/bin/python}")
+[ -x "$PY" ] || { echo "runs.sh: no Python at $PY; set PY=/path/to/.venv/bin/python" >&2; exit 2; }
 cd "$(dirname "$0")/../.."  # the checkout's root: `python -m` imports its acder_lite
-PY=${PY:-.venv/bin/python}
 # acder-wide-clip: in runs this short, Baselines' target clip [-1/(1-gamma), 0] maps the
 # targets of most rows to 0 (S-ICM's untrained errors put r_int at eta = 0.8), so the
 # networks of `acder` do not see a change of the intrinsic reward; the wide clip lets them.

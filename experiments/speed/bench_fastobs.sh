@@ -6,6 +6,8 @@
 # workers ("RPC error: keepalive watchdog timeout"); Ray retried the cells, which resumed
 # from their checkpoints (losing the epoch in progress). Stop the sweep with `kill PID`
 # (its cells cancel cleanly) and start it again after the bench instead.
+echo "bench_fastobs.sh is a record, not to be run again (see above)" >&2
+exit 2
 PIDS=$(pgrep -f "ray::train_cell")
 trap 'kill -CONT $PIDS' EXIT
 kill -STOP $PIDS
