@@ -11,7 +11,7 @@ set -euo pipefail
 OUT=$(realpath -m "${1:?usage: runs.sh OUT}")
 # the interpreter: $PY, else the venv of the folder it is called from (a worktree of the
 # old commit has no .venv of its own); absolute, since the next line changes folder
-PY=$(realpath -m "${PY:-.venv/bin/python}")
+PY=$(realpath -ms "${PY:-.venv/bin/python}")  # -s: a venv's python is a symlink
 [ -x "$PY" ] || { echo "runs.sh: no Python at $PY; set PY=/path/to/.venv/bin/python" >&2; exit 2; }
 cd "$(dirname "$0")/../.."  # the checkout's root: `python -m` imports its acder_lite
 # acder-wide-clip: in runs this short, Baselines' target clip [-1/(1-gamma), 0] maps the
