@@ -209,13 +209,7 @@ def test_address_that_does_not_answer(tmp_path, capsys):
         port = s.getsockname()[1]
     args = parse(
         [
-            "--envs",
-            "FetchReach-v4",
-            "--methods",
-            "her",
-            "--seeds",
-            "0",
-            "--results",
+            *REACH_HER_0,
             str(tmp_path / "r"),
             "--address",
             f"ray://127.0.0.1:{port}",
@@ -232,13 +226,7 @@ def test_address_that_does_not_answer(tmp_path, capsys):
         S.run(
             parse(
                 [
-                    "--envs",
-                    "FetchReach-v4",
-                    "--methods",
-                    "her",
-                    "--seeds",
-                    "0",
-                    "--results",
+                    *REACH_HER_0,
                     str(tmp_path / "r"),
                     "--address",
                     "nonsense",
