@@ -62,10 +62,19 @@ def matmul_gflops(
 
 
 def update_flops(trainer) -> float:
+    """FLOPs of one update step, counted with both losses in this thread.
+
+    Trap: FlopCounterMode sees only the thread that entered it; with `split_update`
+    the actor's loss runs in a second one and would go uncounted."""
     from torch.utils.flop_counter import FlopCounterMode
 
-    with FlopCounterMode(display=False) as fc:
-        trainer.update_step()
+    agent = trainer.agent
+    thread, agent.actor_thread = agent.actor_thread, None
+    try:
+        with FlopCounterMode(display=False) as fc:
+            trainer.update_step()
+    finally:
+        agent.actor_thread = thread
     return float(fc.get_total_flops())
 
 

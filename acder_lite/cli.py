@@ -21,6 +21,7 @@ _RESUMABLE = {
     "epochs",
     "threads",
     "step_threads",
+    "split_update",
     "success_threshold",
     "stop_patience",
     "stop_gap_episodes",

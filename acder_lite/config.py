@@ -150,13 +150,19 @@ OBS_SETS = ("full", "simplified")
 # existed meant. `Config.from_dict` fills these in, so an old run's recorded config
 # still reproduces it.
 LEGACY_VALUES = dict(
-    init="torch", buffer_scope="shared", sicm_input="normalised", update_dtype="float32"
+    init="torch",
+    buffer_scope="shared",
+    sicm_input="normalised",
+    update_dtype="float32",
+    split_update="off",
 )
 LEGACY_METHODS = {"acder-baselines-clip": ("acder", "baselines")}
 """Methods of protocol v1 that are now a method plus a setting:
 name -> (method, target_clip)."""
 
 
+SPLIT_UPDATES = ("auto", "on", "off")
+"""Allowed `Config.split_update` values."""
 UPDATE_DTYPES = ("auto", "float32", "bfloat16")
 """Allowed `Config.update_dtype` values."""
 DEVICES = ("auto", "cpu", "cuda")
@@ -297,11 +303,23 @@ class Config:
 
     # --- engineering
     threads: int = 2
-    """torch intra-op threads (2 uses both cores of this machine)."""
+    """CPU threads of the run (2 uses both cores of this machine): torch's intra-op
+    threads, split between the two loss threads under `split_update`, and by default the
+    threads stepping the envs (`step_threads`)."""
     step_threads: int = 0
     """Threads stepping the W envs at once in collection and evaluation (MuJoCo releases
     the GIL). 0: `threads` when it is above 1, else one (sequential). The rollout is the
     same bit for bit either way (`rollout.run_episodes`); only the time differs."""
+    split_update: str = "auto"
+    """Compute the critic's and the actor's loss (forward and backward) at the same
+    time, in two threads (`DDPG.update`): 'on', 'off' (one thread computes both, as
+    protocol v1 and every run before this setting did), or 'auto' ('on' when `threads`
+    >= 2). On, torch runs on threads // 2 intra-op threads (at least 1) in each of the
+    two threads, instead of `threads` in one: two chains of small matmuls on a core each
+    beat one chain whose every op is split over both cores
+    (experiments/speed/README.md). The losses share no trained tensor, so the numbers
+    are those of a one-thread update on the same intra-op threads: at threads=2 a run
+    equals the threads=1 run bit for bit (tests/test_rollout.py)."""
     update_dtype: str = "auto"
     """Precision of the actor/critic gradient step: 'auto' (bfloat16 only on a CPU with
     native bfloat16 matmul, AVX512-BF16 or AMX; float32 elsewhere:
@@ -361,6 +379,18 @@ class Config:
             )
         self.validate()
         return self
+
+    @property
+    def split(self) -> bool:
+        """Whether the two losses run at once (`split_update`, 'auto' resolved)."""
+        return self.split_update == "on" or (
+            self.split_update == "auto" and self.threads >= 2
+        )
+
+    @property
+    def torch_threads(self) -> int:
+        """torch's intra-op threads: `threads`, or half of them in each loss thread."""
+        return max(1, self.threads // 2) if self.split else self.threads
 
     @property
     def future_p(self) -> float:
@@ -439,6 +469,7 @@ class Config:
             ("init", INITS),
             ("buffer_scope", BUFFER_SCOPES),
             ("sicm_input", SICM_INPUTS),
+            ("split_update", SPLIT_UPDATES),
         ):
             if getattr(self, name) not in allowed:
                 bad(name, " or ".join(repr(x) for x in allowed))

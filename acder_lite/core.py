@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import torch
 from torch import nn
 
@@ -70,3 +72,25 @@ class Critic(nn.Module):
 
     def forward(self, x: torch.Tensor, u: torch.Tensor) -> torch.Tensor:
         return self.net(torch.cat([x, u / self.max_u], dim=-1)).float().squeeze(-1)
+
+
+def frozen_view(net: nn.Module) -> nn.Module:
+    """A copy of `net` whose parameters are `net`'s own tensors, detached: it computes
+    what `net` computes with the weights of the moment, and a loss through it trains
+    nothing of `net` (its weights get no gradient).
+
+    Trap: the usual way, `net.requires_grad_(False)` around a second loss, changes a
+    flag the first loss's graph also reads: with both losses computed at once in two
+    threads (`DDPG.update`), one thread's flag would switch the other's gradients off.
+    The view shares storage, so in-place updates (Adam's step, `load_state_dict`) reach
+    it; a `.to(device)` of `net` afterwards would not: build the view after moving.
+    """
+    view = copy.deepcopy(net)
+    for (name, _), p in zip(list(view.named_parameters()), net.parameters()):
+        owner_name, _, leaf = name.rpartition(".")
+        setattr(
+            view.get_submodule(owner_name),
+            leaf,
+            nn.Parameter(p.detach(), requires_grad=False),
+        )
+    return view

@@ -7,10 +7,11 @@ Each loss takes a batch of tensors (`x` = normalised [o, g], `x2` = normalised [
 from __future__ import annotations
 
 import copy
+from concurrent.futures import ThreadPoolExecutor
 
 import torch
 
-from .core import Actor, Critic
+from .core import Actor, Critic, frozen_view
 
 
 def compute_loss_q(
@@ -44,8 +45,8 @@ def compute_loss_pi(actor, critic, batch: dict, action_l2: float):
     """Eq. 3 as a loss: -mean Q(s, pi(s)) + action_l2 * mean (pi(s)/max_u)^2
     (Baselines' penalty).
 
-    Trap: the critic's weights must not be trained by this loss;
-    the caller freezes them.
+    Trap: the critic's weights must not be trained by this loss: pass a view that
+    shares them without gradients (`core.frozen_view`, as `DDPG.update` does).
     """
     pi = actor(batch["x"])
     return -critic(batch["x"], pi).mean() + action_l2 * (pi / actor.max_u).pow(2).mean()
@@ -56,6 +57,8 @@ class DDPG:
 
     The networks are initialised on the CPU and then moved, so a seed gives the same
     weights on every device; `update`'s batches must be on it (`Trainer.batch_tensors`).
+    `cfg.split` (`Config.split_update`): `update` computes the two losses at the same
+    time, the actor's in a second thread.
     """
 
     def __init__(self, in_dim: int, act_dim: int, cfg, max_u: float = 1.0, device=None):
@@ -67,6 +70,13 @@ class DDPG:
         self.critic = Critic(*shape).to(self.device)
         self.actor_targ = copy.deepcopy(self.actor).requires_grad_(False)
         self.critic_targ = copy.deepcopy(self.critic).requires_grad_(False)
+        # the critic as the actor's loss sees it: its weights, without their gradients
+        self.critic_frozen = frozen_view(self.critic)
+        self.actor_thread = (
+            ThreadPoolExecutor(1, thread_name_prefix="actor-loss")
+            if cfg.split
+            else None
+        )
         # fused: one kernel per optimiser step instead of ~10 small ops per tensor
         # (measured ~10% of an update step on this CPU).
         self.pi_opt = torch.optim.Adam(
@@ -89,29 +99,48 @@ class DDPG:
     def update(self, batch: dict, clip_return, weights=None) -> dict:
         """One gradient step of critic and actor, both computed with the critic before
         its step (as Baselines does in one session run). Returns losses and |TD| for
-        PER."""
-        with self._autocast():
-            q_loss, td = compute_loss_q(
-                self.critic,
-                self.actor_targ,
-                self.critic_targ,
-                batch,
-                self.cfg.gamma,
-                clip_return,
-                weights,
-            )
-        self.q_opt.zero_grad(set_to_none=True)
-        q_loss.backward()
-        # Freeze the critic for the actor's loss: skips its weight gradients (a third of
-        # its backward pass) and keeps the critic's .grad from the critic loss alone.
-        self.critic.requires_grad_(False)
-        with self._autocast():
-            pi_loss = compute_loss_pi(
-                self.actor, self.critic, batch, self.cfg.action_l2
-            )
-        self.pi_opt.zero_grad(set_to_none=True)
-        pi_loss.backward()
-        self.critic.requires_grad_(True)
+        PER.
+
+        The two losses share no trained tensor (the actor's sees the critic through
+        `critic_frozen`), so they may run at once: with `actor_thread` the actor's
+        forward and backward run in it while this thread does the critic's (torch
+        releases the GIL inside its ops). Each op runs as it would alone, so the
+        result is the same bit for bit; the steps come after both.
+        """
+
+        def critic_grads():
+            with self._autocast():
+                q_loss, td = compute_loss_q(
+                    self.critic,
+                    self.actor_targ,
+                    self.critic_targ,
+                    batch,
+                    self.cfg.gamma,
+                    clip_return,
+                    weights,
+                )
+            self.q_opt.zero_grad(set_to_none=True)
+            q_loss.backward()
+            return q_loss, td
+
+        def actor_grads():
+            with self._autocast():  # autocast is per thread: enter it in this one
+                pi_loss = compute_loss_pi(
+                    self.actor, self.critic_frozen, batch, self.cfg.action_l2
+                )
+            self.pi_opt.zero_grad(set_to_none=True)
+            pi_loss.backward()
+            return pi_loss
+
+        if self.actor_thread is None:
+            q_loss, td = critic_grads()
+            pi_loss = actor_grads()
+        else:
+            future = self.actor_thread.submit(actor_grads)
+            try:
+                q_loss, td = critic_grads()
+            finally:
+                pi_loss = future.result()  # waits, and re-raises the thread's error
         self.q_opt.step()
         self.pi_opt.step()
         return dict(critic_loss=q_loss.detach(), actor_loss=pi_loss.detach(), td=td)

@@ -2,12 +2,14 @@
 
 Used by the trainer (collection and evaluation), `eval`, `diagnose`, `bench` and the
 book's scenes. `run_episodes` steps the W envs together with one batched policy call per
-step; with a thread pool it steps them in parallel (MuJoCo's mj_step releases the GIL),
-which gives the same arrays bit for bit: every env is stepped exactly as before, only at
-the same time.
+step; with a `StepPool` it steps them in parallel threads (MuJoCo's mj_step releases
+the GIL), which gives the same arrays bit for bit: every env is stepped exactly as
+before, only at the same time.
 """
 
 from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import torch
@@ -100,12 +102,49 @@ class Policy:
         return cls(actor, o_norm, g_norm, d["clip_obs"], device)
 
 
+class StepPool:
+    """`n` threads stepping the envs of a batched step: the calling thread and n - 1
+    helpers, thread k taking envs k, k + n, k + 2n, ...
+
+    Trap: one executor task per env (`executor.map` over the W envs) pays a thread
+    wake-up for every env at every step, and the calling thread sits idle meanwhile; on
+    this machine's VM that cost about as much as the parallel stepping saved
+    (experiments/speed/README.md). Here a step wakes n - 1 helpers once each and the
+    caller steps its own share.
+    """
+
+    def __init__(self, n: int):
+        if n < 2:
+            raise ValueError(f"a StepPool needs n >= 2 threads, got {n}")
+        self.n = n
+        self.helpers = ThreadPoolExecutor(n - 1, thread_name_prefix="step")
+
+    def run(self, fn, items: list) -> None:
+        """fn(item) for every item, the shares at the same time; returns when all are
+        done and re-raises the first exception of any share here."""
+        shares = [items[k :: self.n] for k in range(self.n)]
+        futures = [self.helpers.submit(_each, fn, sh) for sh in shares[1:] if sh]
+        try:
+            _each(fn, shares[0])
+        finally:
+            for f in futures:
+                f.result()
+
+    def shutdown(self) -> None:
+        self.helpers.shutdown()
+
+
+def _each(fn, items) -> None:
+    for it in items:
+        fn(it)
+
+
 def run_episodes(envs: list, act, T: int, starts=None, pool=None) -> dict:
     """Roll out one episode in each env,
     stepping them together with one batched `act(o, g)` call.
 
     `starts(i)` may return a stored start (dict with state, goal or None) for env i.
-    `pool` (a concurrent.futures executor, or None) steps the envs in parallel threads;
+    `pool` (a `StepPool`, or None: one thread) steps the envs in parallel threads;
     resets stay in order, since `starts` may draw from a shared random stream. Returns
     arrays with a leading env axis: o, ag, state (T+1 steps), g, u (T steps), success
     (last step), novel.
@@ -140,19 +179,22 @@ def run_episodes(envs: list, act, T: int, starts=None, pool=None) -> dict:
         )
         E.get_state(env, state[i, 0])
 
-    def step(i: int, t: int, a_i: np.ndarray) -> None:  # writes only env i's rows
-        obs, ok = E.step(envs[i], a_i)
+    t, a = 0, None
+
+    def step(i: int) -> None:  # step t of env i with a[i]: writes only env i's rows
+        obs, ok = E.step(envs[i], a[i])
         o[i, t + 1], ag[i, t + 1] = obs["observation"], obs["achieved_goal"]
         E.get_state(envs[i], state[i, t + 1])
         if t == T - 1:
             success[i] = ok
 
+    envs_i = list(range(W))
     for t in range(T):
         a = act(o[:, t], goal)
         u[:, t], g[:, t] = a, goal
         if pool is None:
-            for i in range(W):
-                step(i, t, a[i])
-        else:  # list(): wait for all, and re-raise an env's exception here
-            list(pool.map(step, range(W), [t] * W, a))
+            for i in envs_i:
+                step(i)
+        else:
+            pool.run(step, envs_i)
     return dict(o=o, ag=ag, state=state, g=g, u=u, success=success, novel=novel)

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import sys
 import time
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import torch
@@ -24,7 +23,7 @@ from .ddpg import DDPG
 from .her import sample_her_transitions
 from .normalizer import Normalizer
 from .rewards import goal_factor_target, intrinsic_reward, shaped_reward
-from .rollout import Policy, run_episodes
+from .rollout import Policy, StepPool, run_episodes
 from .runfiles import RunFiles, versions
 from .start_states import StartStateSelector
 
@@ -81,7 +80,7 @@ class Trainer:
         self.out_dir, self.command = out_dir, command or sys.argv
         self.files = RunFiles(out_dir) if out_dir else None
         sw = cfg.switches
-        torch.set_num_threads(cfg.threads)
+        torch.set_num_threads(self.cfg.torch_threads)
         torch.manual_seed(cfg.seed)
         self.rng = np.random.default_rng(cfg.seed)
         # cfg.obs: the observation set every env gives (acder_lite.observations);
@@ -96,11 +95,7 @@ class Trainer:
             for i in range(cfg.workers)
         ]
         n_step = min(cfg.workers, cfg.step_threads or cfg.threads)
-        self.pool = (
-            ThreadPoolExecutor(n_step, thread_name_prefix="step")
-            if n_step > 1
-            else None
-        )
+        self.pool = StepPool(n_step) if n_step > 1 else None
         env0 = self.envs[0]
         obs = env0._get_obs()
         self.T = E.horizon(cfg.env)

@@ -106,6 +106,62 @@ def test_actor_loss_does_not_train_the_critic():
         torch.testing.assert_close(p, q)
 
 
+def test_frozen_view_shares_the_weights_without_their_gradients():
+    from acder_lite.core import Critic, frozen_view
+
+    torch.manual_seed(0)
+    net = Critic(3, 2, hidden=8, layers=2)
+    view = frozen_view(net)
+    x, u = torch.randn(5, 3), torch.rand(5, 2)
+    assert torch.equal(view(x, u), net(x, u))
+    opt = torch.optim.Adam(net.parameters(), lr=0.1)
+    net(x, u).sum().backward()
+    opt.step()  # in place: the view follows
+    assert torch.equal(view(x, u), net(x, u))
+    other = Critic(3, 2, hidden=8, layers=2)
+    net.load_state_dict(other.state_dict())  # in place too
+    assert torch.equal(view(x, u), other(x, u))
+    # a loss through the view: gradients for its input, none for any weight
+    net.zero_grad(set_to_none=True)
+    xg = x.clone().requires_grad_(True)
+    view(xg, u).sum().backward()
+    assert xg.grad is not None and xg.grad.abs().sum() > 0
+    assert all(p.grad is None for p in net.parameters())
+    assert all(not p.requires_grad for p in view.parameters())
+    assert all(p.requires_grad for p in net.parameters())
+
+
+@pytest.mark.parametrize("update_dtype", ["float32", "bfloat16"])
+def test_split_update_is_the_one_thread_update(update_dtype):
+    """The two losses at once (split_update='on') against one after the other: the
+    same weights, bit for bit, after 5 steps (one intra-op thread each). bfloat16:
+    the actor's thread enters autocast itself."""
+    from acder_lite.config import Config
+    from acder_lite.ddpg import DDPG
+
+    torch.set_num_threads(1)
+    torch.manual_seed(0)
+    b = dict(
+        x=torch.randn(256, 10),
+        x2=torch.randn(256, 10),
+        u=torch.rand(256, 4) * 2 - 1,
+        r=-(torch.rand(256) < 0.8).float(),
+    )
+    agents = {}
+    for split in ("off", "on"):
+        torch.manual_seed(1)
+        cfg = Config(split_update=split, update_dtype=update_dtype, hidden=32)
+        agents[split] = DDPG(10, 4, cfg.resolve())
+    assert agents["off"].actor_thread is None and agents["on"].actor_thread is not None
+    for _ in range(5):
+        out = {k: a.update(b, (-50.0, 0.0)) for k, a in agents.items()}
+        for k in ("critic_loss", "actor_loss", "td"):
+            assert torch.equal(out["off"][k], out["on"][k]), k
+    for net in ("actor", "critic"):
+        for k, v in getattr(agents["off"], net).state_dict().items():
+            assert torch.equal(v, getattr(agents["on"], net).state_dict()[k]), k
+
+
 def test_bfloat16_update_follows_float32():
     """`update_dtype='bfloat16'`: the same step as fp32 up to bf16 rounding,
     on fp32 weights."""

@@ -1,9 +1,14 @@
 """The rollout: stepping the W envs in parallel threads gives the same run bit for
-bit."""
+bit; so does a run on two threads (envs stepped and losses computed at once) against one
+on one thread."""
+
+import threading
 
 import numpy as np
 import pytest
+import torch
 
+from acder_lite.rollout import StepPool
 from acder_lite.trainer import Trainer
 from conftest import tiny_config
 
@@ -42,5 +47,81 @@ def test_parallel_stepping_is_the_same_run(env, method):
 def test_step_threads_default_follows_threads():
     assert Trainer(tiny_config(threads=1)).pool is None
     tr = Trainer(tiny_config(threads=2, workers=2))
-    assert tr.pool is not None and tr.pool._max_workers == 2
+    assert tr.pool is not None and tr.pool.n == 2
     assert Trainer(tiny_config(threads=2, workers=2, step_threads=1)).pool is None
+
+
+def test_step_pool_runs_every_item_once_in_n_threads():
+    pool = StepPool(3)
+    seen = {}
+
+    def fn(i):
+        seen.setdefault(i, []).append(threading.current_thread().name)
+
+    pool.run(fn, list(range(7)))
+    assert sorted(seen) == list(range(7)) and all(len(v) == 1 for v in seen.values())
+    # the caller's own share is every n-th item; the rest ran in the helpers
+    main = threading.current_thread().name
+    assert [i for i, v in seen.items() if v == [main]] == [0, 3, 6]
+    assert all(v[0].startswith("step") for i, v in seen.items() if i % 3)
+    pool.run(fn, [0])  # fewer items than threads: the caller steps it alone
+    assert seen[0] == [main, main]
+
+
+def test_step_pool_reraises_an_error_of_any_share():
+    def fn(i):
+        if i == 1:  # thread 1's share
+            raise RuntimeError("env 1 failed")
+
+    with pytest.raises(RuntimeError, match="env 1 failed"):
+        StepPool(2).run(fn, [0, 1, 2, 3])
+    with pytest.raises(ValueError, match="n >= 2"):
+        StepPool(1)
+
+
+@pytest.mark.parametrize("method", ["acder", "her-per"])
+def test_two_threads_are_the_one_thread_run(method):
+    """threads=2 (envs stepped in two threads, the two losses at once on one intra-op
+    thread each) against threads=1: every progress row, the replay buffer and every
+    weight are equal. PER's priorities come from the critic thread's TD errors."""
+    runs = []
+    for threads in (1, 2):
+        cfg = tiny_config(
+            env="FetchPush-v4", method=method, workers=2, hidden=64, threads=threads
+        )
+        tr = Trainer(cfg)
+        assert cfg.split == (threads == 2) and torch.get_num_threads() == 1
+        assert (tr.agent.actor_thread is None) == (threads == 1)
+        rows = _strip(tr.train(progress=False))
+        runs.append((rows, tr.buffer.arrays(), tr.agent.state_dict()))
+    (rows_a, buf_a, net_a), (rows_b, buf_b, net_b) = runs
+    assert rows_a == rows_b and len(rows_a) == 2
+    for key in ("o", "u", "state"):
+        np.testing.assert_array_equal(buf_a[key], buf_b[key], err_msg=key)
+    for net in ("actor", "critic", "actor_targ", "critic_targ"):
+        for k, v in net_a[net].items():
+            assert torch.equal(v, net_b[net][k]), f"{net}.{k}"
+
+
+def test_split_update_follows_threads():
+    from acder_lite.config import Config
+
+    assert not Config(threads=1).split and Config(threads=2).split
+    assert Config(threads=2).torch_threads == 1 and Config(threads=5).torch_threads == 2
+    off = Config(threads=2, split_update="off")
+    assert not off.split and off.torch_threads == 2
+    assert Config(threads=1, split_update="on").torch_threads == 1
+    # a config.json written before the setting existed is the run it was: one thread
+    assert Config.from_dict(dict(threads=2)).split_update == "off"
+
+
+def test_bench_counts_the_flops_of_both_loss_threads():
+    from acder_lite.bench import update_flops
+
+    flops = {}
+    for threads in (1, 2):
+        tr = Trainer(tiny_config(env="FetchPush-v4", threads=threads))
+        tr.train_cycle()  # a filled buffer to sample from
+        flops[threads] = update_flops(tr)
+        assert (tr.agent.actor_thread is None) == (threads == 1)  # put back
+    assert flops[1] == flops[2] > 0
