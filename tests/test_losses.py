@@ -106,6 +106,16 @@ def test_actor_loss_does_not_train_the_critic():
         torch.testing.assert_close(p, q)
 
 
+def random_batch(n: int) -> dict:
+    """n rows of 10 input numbers and 4 action ones; 80% of the rewards are -1."""
+    return dict(
+        x=torch.randn(n, 10),
+        x2=torch.randn(n, 10),
+        u=torch.rand(n, 4) * 2 - 1,
+        r=-(torch.rand(n) < 0.8).float(),
+    )
+
+
 def test_frozen_view_shares_the_weights_without_their_gradients():
     from acder_lite.core import Critic, frozen_view
 
@@ -141,12 +151,7 @@ def test_split_update_is_the_one_thread_update(update_dtype):
 
     torch.set_num_threads(1)
     torch.manual_seed(0)
-    b = dict(
-        x=torch.randn(256, 10),
-        x2=torch.randn(256, 10),
-        u=torch.rand(256, 4) * 2 - 1,
-        r=-(torch.rand(256) < 0.8).float(),
-    )
+    b = random_batch(256)
     agents = {}
     for split in ("off", "on"):
         torch.manual_seed(1)
@@ -169,12 +174,7 @@ def test_bfloat16_update_follows_float32():
     from acder_lite.ddpg import DDPG
 
     torch.manual_seed(0)
-    b = dict(
-        x=torch.randn(512, 10),
-        x2=torch.randn(512, 10),
-        u=torch.rand(512, 4) * 2 - 1,
-        r=-(torch.rand(512) < 0.8).float(),
-    )
+    b = random_batch(512)
     agents = {}
     for dt in ("float32", "bfloat16"):
         torch.manual_seed(1)
