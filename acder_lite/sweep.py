@@ -12,7 +12,9 @@ a lost worker (killed process, lost node) resumes the run from its last checkpoi
 the trainer's determinism makes the result equal to an uninterrupted run's. Training
 runs in the task's own worker process, which reports its pid in the first line it writes
 to `train.log`. Ctrl-C cancels the running tasks: each stops at once and keeps its last
-end-of-epoch checkpoint; the same command continues.
+end-of-epoch checkpoint; the same command continues. A local sweep hands Ray only as many
+cells as run at once (`CellQueue`), in the plan's order, and reads a plan file again
+whenever a cell ends, so a hold deleted from the file takes effect without a restart.
 
 Without `--address` the sweep starts a local Ray of its own (nothing to set up) and
 stops it at the end; with `--address auto` or `--address ray://HOST:PORT` it joins a
@@ -422,6 +424,62 @@ def check_folders(cells: list[Cell]) -> str | None:
     return None
 
 
+class CellQueue:
+    """The cells still to start, in the plan's order, handed out so that at most
+    `limit` run at once (None: all at once, for a cluster's own scheduler).
+
+    Trap: handing a local Ray every cell at once lets Ray order them, and a cell that
+    Ray retries after a lost worker goes behind every queued one (seen here: the plan's
+    order lost for hours). A local sweep hands Ray only as many cells as it runs, so a
+    retry starts at once and the plan's order holds.
+
+    `replan` (a plan file's `read_plan`, or None) is called by `reread` whenever a cell
+    ends: a hold deleted from the file starts its cells in their place in the plan,
+    without a restart; a hold added keeps the group's unstarted cells back.
+    """
+
+    def __init__(self, cells: list[Cell], limit: int | None, replan=None):
+        self.waiting = list(cells)
+        self.limit, self.replan = limit, replan
+        self.started: set[Path] = set()
+
+    def take(self, running: int) -> list[Cell]:
+        """The cells to start now, with `running` cells already running."""
+        n = len(self.waiting) if self.limit is None else max(0, self.limit - running)
+        out, self.waiting = self.waiting[:n], self.waiting[n:]
+        self.started.update(c.out for c in out)
+        return out
+
+    def reread(self) -> str:
+        """Read the plan again (if there is one); the cells not started yet become the
+        plan's runnable ones. Returns what changed, in one line ("" if nothing)."""
+        if self.replan is None:
+            return ""
+        try:
+            cells = self.replan()
+        except PlanError as e:
+            return f"plan not read again ({e}); the queue stays as it was"
+        problem = check_folders(cells)
+        if problem:
+            return f"plan not read again ({problem}); the queue stays as it was"
+        before = {c.out for c in self.waiting}
+        self.waiting = [
+            c for c in cells if c.action != "skip" and c.out not in self.started
+        ]
+        after = {c.out for c in self.waiting}
+        added = [c.name for c in self.waiting if c.out not in before]
+        dropped = len(before - after)
+        parts = []
+        if added:
+            more = ", ..." if len(added) > 3 else ""
+            parts.append(
+                f"{len(added)} cell(s) now to run ({', '.join(added[:3])}{more})"
+            )
+        if dropped:
+            parts.append(f"{dropped} cell(s) no longer to run")
+        return "plan read again: " + "; ".join(parts) if parts else ""
+
+
 def train_argv(cell: Cell, args, resume: bool) -> list[str]:
     """The `acder_lite train` arguments of one cell: its options,
     the sweep's, --train-args.
@@ -676,13 +734,14 @@ def run(args) -> int:
     from .signals import interrupt_on_signals
 
     interrupt_on_signals()  # `kill PID` of a background sweep cancels its cells cleanly
+    replan = (lambda: read_plan(args.plan)) if args.plan is not None else None
     try:
-        return _drive(todo, args, len(cells) - len(todo))
+        return _drive(todo, args, len(cells) - len(todo), replan)
     finally:
         ray.shutdown()
 
 
-def _drive(todo: list[Cell], args, skipped: int) -> int:
+def _drive(todo: list[Cell], args, skipped: int, replan=None) -> int:
     import ray
     from tqdm import tqdm
 
@@ -690,7 +749,15 @@ def _drive(todo: list[Cell], args, skipped: int) -> int:
     task = ray.remote(max_calls=1)(train_cell).options(
         num_cpus=args.threads, max_retries=MAX_RETRIES
     )
-    refs = {task.remote(c, args): c for c in todo}
+    # a local Ray gets `jobs` cells at a time (CellQueue says why); a cluster all
+    queue = CellQueue(todo, None if args.address else args.jobs, replan)
+    refs: dict = {}
+
+    def start() -> None:
+        for c in queue.take(len(refs)):
+            refs[task.remote(c, args)] = c
+
+    start()
     _say(
         f"{len(todo)} cells ({sum(c.action == 'resume' for c in todo)} to resume), "
         f"threads={args.threads} each"
@@ -710,6 +777,11 @@ def _drive(todo: list[Cell], args, skipped: int) -> int:
             ready, _ = ray.wait(list(refs), num_returns=1, timeout=1.0)
             for ref in ready:
                 _finish(refs.pop(ref), ref, counts, bar, t0)
+                change = queue.reread()
+                if change:
+                    _say(change)
+                    bar.total = bar.n + len(refs) + len(queue.waiting)
+                start()
     except KeyboardInterrupt:
         _say(
             f"interrupt: cancelling {len(refs)} cell(s); each keeps its last checkpoint"
@@ -720,8 +792,8 @@ def _drive(todo: list[Cell], args, skipped: int) -> int:
             _finish(cell, ref, counts, bar, t0)
         bar.close()
         _say(
-            f"interrupted: {counts['done']} finished; "
-            "re-run the same command to continue"
+            f"interrupted: {counts['done']} finished, "
+            f"{len(queue.waiting)} not started; re-run the same command to continue"
         )
         return EXIT_INTERRUPTED
     bar.close()

@@ -582,3 +582,101 @@ def test_ray_ctrl_c_keeps_checkpoints_and_the_same_command_finishes(tmp_path):
         and "finish FetchReach-v4/her/seed0: done" in out.stdout
     )
     assert len(_rows(run)) == 12
+
+
+def _two_group_plan(path: Path, hold: str = "second") -> None:
+    """Reach her seeds 0-1, then Reach her-per seed 0; `hold` names the group on hold
+    ("first", "second", or "" for none). Tiny runs (for the real sweep below)."""
+    config = (
+        "workers = 1, cycles = 2, updates_per_cycle = 2, test_episodes = 1, "
+        "batch_size = 16, hidden = 16, buffer_size = 5000, stop_patience = 0, epochs = 3"
+    )
+    group = '[[group]]\nenvs = ["FetchReach-v4"]\nmethods = ["{}"]\nseeds = {}\n{}\n'
+    path.write_text(
+        f"[defaults]\nconfig = {{ {config} }}\n\n"
+        + group.format("her", "[0, 1]", 'hold = "waits"' if hold == "first" else "")
+        + group.format("her-per", "[0]", 'hold = "waits"' if hold == "second" else "")
+    )
+
+
+def test_queue_hands_out_the_plan_order_a_few_at_a_time(tmp_path):
+    cells = S.plan(["FetchReach-v4"], ["her"], [0, 1, 2], tmp_path)
+    q = S.CellQueue(cells, 2)
+    assert [c.seed for c in q.take(running=0)] == [0, 1]
+    assert q.take(running=2) == []
+    assert [c.seed for c in q.take(running=1)] == [2] and q.take(running=0) == []
+    assert len(S.CellQueue(cells, None).take(running=5)) == 3  # a cluster: all at once
+    assert q.reread() == ""  # no plan file: nothing to read again
+
+
+def test_queue_reads_the_plan_again(tmp_path):
+    """A hold deleted while the sweep runs puts its cells in their place in the plan;
+    one added keeps its unstarted cells back; started cells are never handed out
+    twice; a plan broken meanwhile leaves the queue as it was."""
+    path = tmp_path / "plan.toml"
+    _two_group_plan(path, hold="second")
+    todo = [c for c in S.read_plan(path) if c.action != "skip"]
+    q = S.CellQueue(todo, 1, lambda: S.read_plan(path))
+    assert [c.name for c in q.take(running=0)] == ["FetchReach-v4/her/seed0"]
+    assert q.reread() == ""
+    _two_group_plan(path, hold="")
+    assert q.reread() == (
+        "plan read again: 1 cell(s) now to run (FetchReach-v4/her-per/seed0)"
+    )
+    assert [c.name for c in q.waiting] == [
+        "FetchReach-v4/her/seed1",
+        "FetchReach-v4/her-per/seed0",
+    ]
+    _two_group_plan(path, hold="first")
+    assert q.reread() == "plan read again: 1 cell(s) no longer to run"
+    assert [c.name for c in q.waiting] == ["FetchReach-v4/her-per/seed0"]
+    path.write_text("[[group]\n")
+    assert q.reread().startswith("plan not read again (plan ")
+    assert [c.name for c in q.waiting] == ["FetchReach-v4/her-per/seed0"]
+    touch(tmp_path / "FetchReach-v4" / "her-per" / "seed0", "done.json")
+    _two_group_plan(path, hold="first")  # another sweep finished it meanwhile
+    assert q.reread() == "plan read again: 1 cell(s) no longer to run"
+    assert q.waiting == []
+
+
+@pytest.mark.xdist_group(
+    "ray"
+)  # one local Ray at a time: a busy machine starts them slowly
+def test_ray_sweep_starts_a_group_whose_hold_is_lifted_while_it_runs(tmp_path):
+    """One cell at a time (--jobs 1); the second group is on hold when the sweep
+    starts and its hold is deleted while the first cells train: the same sweep runs it
+    too, after them, without a restart."""
+    results = tmp_path / "results"
+    results.mkdir()
+    path = results / "plan.toml"
+    _two_group_plan(path, hold="second")
+    first = results / "FetchReach-v4" / "her" / "seed0"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "acder_lite", "sweep", "--plan", str(path)]
+        + ["--jobs", "1"],
+        cwd=tmp_path,
+        env=_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        _wait_for(lambda: (first / "train.log").exists(), proc, 300)
+        _two_group_plan(path, hold="")
+        out, _ = proc.communicate(timeout=400)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, out
+    assert "skip   FetchReach-v4/her-per/seed0 (on hold: waits)" in out
+    assert "plan read again: 1 cell(s) now to run (FetchReach-v4/her-per/seed0)" in out
+    finished = [line.split(": ")[1] for line in out.splitlines() if "finish " in line]
+    assert finished == [
+        "finish FetchReach-v4/her/seed0",
+        "finish FetchReach-v4/her/seed1",
+        "finish FetchReach-v4/her-per/seed0",
+    ]
+    assert all(
+        (results / "FetchReach-v4" / m / f"seed{k}" / "done.json").exists()
+        for m, k in (("her", 0), ("her", 1), ("her-per", 0))
+    )
