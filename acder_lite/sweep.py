@@ -12,9 +12,10 @@ a lost worker (killed process, lost node) resumes the run from its last checkpoi
 the trainer's determinism makes the result equal to an uninterrupted run's. Training
 runs in the task's own worker process, which reports its pid in the first line it writes
 to `train.log`. Ctrl-C cancels the running tasks: each stops at once and keeps its last
-end-of-epoch checkpoint; the same command continues. A local sweep hands Ray only as many
-cells as run at once (`CellQueue`), in the plan's order, and reads a plan file again
-whenever a cell ends, so a hold deleted from the file takes effect without a restart.
+end-of-epoch checkpoint; the same command continues. A local sweep hands Ray only as
+many cells as run at once (`CellQueue`), in the plan's order, and reads a plan file
+again whenever a cell ends, so a hold deleted from the file takes effect without a
+restart.
 
 Without `--address` the sweep starts a local Ray of its own (nothing to set up) and
 stops it at the end; with `--address auto` or `--address ray://HOST:PORT` it joins a

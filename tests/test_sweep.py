@@ -589,7 +589,8 @@ def _two_group_plan(path: Path, hold: str = "second") -> None:
     ("first", "second", or "" for none). Tiny runs (for the real sweep below)."""
     config = (
         "workers = 1, cycles = 2, updates_per_cycle = 2, test_episodes = 1, "
-        "batch_size = 16, hidden = 16, buffer_size = 5000, stop_patience = 0, epochs = 3"
+        "batch_size = 16, hidden = 16, buffer_size = 5000, stop_patience = 0, "
+        "epochs = 3"
     )
     group = '[[group]]\nenvs = ["FetchReach-v4"]\nmethods = ["{}"]\nseeds = {}\n{}\n'
     path.write_text(
