@@ -260,6 +260,30 @@ def on_grid(curves: list[SeedCurve]) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return x, Y, C
 
 
+def earliest_crossing(curves: list[SeedCurve], n: int, threshold: float) -> float:
+    """The earliest epoch at which the mean curve of `n` seeds can still reach
+    `threshold`, given `curves`, the seeds read so far (finished or not; n >=
+    len(curves), the rest not started).
+
+    A mean of n values of at most 1 reaches the threshold only where every seed is at
+    the level 1 - n (1 - threshold) or above, so not before the latest of the seeds'
+    first crossings of that level. A seed still training that has not reached it counts
+    with its last evaluation (it may reach it right after); one that ended without
+    reaching it leaves no crossing at all (inf). 0 while no seed has an evaluation.
+    Trap: this bounds the mean curve only; a bootstrap resample that repeats the fast
+    seeds can cross earlier."""
+    level = 1 - n * (1 - threshold)
+    bound = 0.0
+    for s in curves:
+        if not len(s.x):
+            continue
+        hit = first_crossing(s.x, s.y, level)
+        if hit is None:
+            hit = math.inf if s.ended is not None else float(s.x[-1])
+        bound = max(bound, hit)
+    return bound
+
+
 @dataclass
 class MeanCurve:
     """The mean over seeds where every seed has a value (elsewhere NaN)."""
@@ -426,6 +450,9 @@ class CellStat:
     """How far the mean curve reaches (every seed has a value up to here)."""
     crossing: float | None = None
     """Epoch at which the mean curve first reaches the threshold."""
+    earliest: float | None = None
+    """The earliest epoch at which the mean curve of the planned seeds can still reach
+    the threshold, given the seeds read so far (`earliest_crossing`; inf: never)."""
     why: str = ""
     """Why there is no crossing: 'not run yet', 'no evaluation yet', 'not yet', 'not
     within budget' or 'not before a seed's curve was cut'."""
@@ -525,6 +552,7 @@ def cell_stat(
         for r in runs
     ]
     c.seed_crossings = [first_crossing(s.x, s.y, thr) for s in curves]
+    c.earliest = earliest_crossing(curves, max(c.planned or 0, c.n), thr)
     summ = seed_summary(c.seed_crossings)
     c.seed_median, c.seed_low, c.seed_high, c.k = (
         summ["median"],
@@ -673,6 +701,24 @@ def separated(a: CellStat, b: CellStat) -> bool | None:
         return not c.low <= x <= c.high
 
     return outside(a.crossing, b) and outside(b.crossing, a)
+
+
+def cannot_cross_first(challenger: CellStat, incumbent: CellStat) -> bool:
+    """True when `challenger`'s mean curve can no longer cross before `incumbent`'s,
+    whatever its unfinished and unstarted seeds do: every seed of `incumbent` has ended
+    and `challenger.earliest` is at or after its crossing.
+
+    The readings' second rule gives the challenger the default only where the runs
+    separate the two with the challenger crossing first; once this is True that cannot
+    happen, and the rule's answer (the incumbent) is known before the challenger's last
+    seeds are in."""
+    return (
+        incumbent.crossing is not None
+        and incumbent.unfinished == 0
+        and (incumbent.planned is None or incumbent.done >= incumbent.planned)
+        and challenger.earliest is not None
+        and challenger.earliest >= incumbent.crossing
+    )
 
 
 def choose(a: CellStat, b: CellStat, fallback: str) -> tuple[str | None, bool | None]:

@@ -26,6 +26,7 @@ from .report import (
     PAPER_EPISODES_PER_EPOCH,
     CellStat,
     RatioStat,
+    cannot_cross_first,
     choose,
     grid_cells,
     ratios,
@@ -362,6 +363,22 @@ def choice_sentence(a: CellStat, b: CellStat, fallback: str, why: str) -> str:
     two crossings, which lies inside the other's interval, the setting chosen
     (`fallback`, for `why`, where the runs do not separate them)."""
     chosen, sep = choose(a, b, fallback)
+    if chosen is None and fallback == a.name and cannot_cross_first(b, a):
+        n = max(b.planned or 0, b.n)
+        level = 1 - n * (1 - b.threshold)
+        when = (
+            "within its budget"
+            if math.isinf(b.earliest)
+            else f"before {units(b, b.earliest)} episodes"
+        )
+        return (
+            f"The mean curve of {label(b.name)} cannot cross {when}: a mean of {n} "
+            f"seeds reaches {b.threshold:.0%} only where every seed is at {level:.0%} "
+            f"or more, and its seeds so far get there no earlier. {label(a.name)} "
+            f"crossed at {units(a, a.crossing)}, so {label(b.name)} cannot cross "
+            f"first, whatever its {n - b.done} seed(s) still to finish do, and the "
+            f"rule keeps {label(a.name)}."
+        )
     if chosen is None:
         return (
             f"The rule cannot be applied yet: {label(a.name)} or {label(b.name)} "

@@ -254,3 +254,44 @@ def test_the_readings_rule_hand_worked():
     tie = push_cell("e", 12.7, 12.7, 12.7)  # equal crossings: never separated
     assert R.separated(push_cell("f", 12.7, 20.0, 30.0), tie) is False
     assert R.separated(a, push_cell("g", 14.0, math.inf, math.inf)) is None
+
+
+def test_earliest_crossing_by_hand():
+    """Three seeds planned, threshold 0.95: the mean can reach it only where every seed
+    is at 1 - 3 x 0.05 = 0.85 or above."""
+    done = R.seed_curve(rows(B), "budget", 10)  # B reaches 0.85 at epoch 6.5
+    training = R.seed_curve(rows([0.1, 0.4, 0.7]), None, 10)  # below 0.85 up to 3
+    assert R.earliest_crossing([done], 3, 0.95) == pytest.approx(6.5)
+    assert R.earliest_crossing([training], 3, 0.95) == 3.0  # may reach it right after
+    assert R.earliest_crossing([done, training], 3, 0.95) == pytest.approx(6.5)
+    slow = R.seed_curve(rows([0.1] * 9 + [0.84]), None, 10)
+    assert R.earliest_crossing([done, slow], 3, 0.95) == 10.0
+    ended_low = R.seed_curve(rows([0.1, 0.84]), "budget", 2)
+    assert R.earliest_crossing([done, ended_low], 3, 0.95) == math.inf
+    # one seed planned: its own crossing; no evaluation yet: 0
+    assert R.earliest_crossing([done], 1, 0.95) == pytest.approx(
+        R.first_crossing(done.x, done.y, 0.95)
+    )
+    assert R.earliest_crossing([], 3, 0.95) == 0.0
+
+
+def test_earliest_crossing_never_passes_the_crossing():
+    """With every planned seed in, the bound lies at or before the mean curve's own
+    crossing (the cell statistic records both)."""
+    c = R.cell_stat(
+        "FetchPush-v4", "her", [run(0, A, "stop rule"), run(1, B, "budget")]
+    )
+    assert c.crossing is not None and c.earliest <= c.crossing
+
+
+def test_a_challenger_that_cannot_cross_first():
+    raw = push_cell("sicm-raw", 14.8, 9.7, 16.75)
+    raw.done, raw.planned = 3, 3
+    goal = push_cell("sicm-raw-episode-goal", None, None, None)
+    goal.earliest, goal.planned, goal.n, goal.done = 23.0, 3, 3, 1
+    assert R.cannot_cross_first(goal, raw)
+    goal.earliest = 14.0  # its unfinished seeds could still make it cross first
+    assert not R.cannot_cross_first(goal, raw)
+    goal.earliest = 23.0
+    raw.done, raw.unfinished = 2, 1  # the incumbent's crossing may still move
+    assert not R.cannot_cross_first(goal, raw)

@@ -419,3 +419,16 @@ def test_choice_sentence_says_what_the_rule_made_of_the_runs():
     assert "cannot be applied yet" in T.choice_sentence(
         a, push_cell("sicm-raw", None, None, None), "sicm-raw", "x"
     )
+
+
+def test_choice_sentence_once_the_challenger_cannot_cross_first():
+    raw = push_cell("sicm-raw", 14.8, 9.7, 16.75)
+    raw.done, raw.planned = 3, 3
+    goal = push_cell("sicm-raw-episode-goal", None, None, None)
+    goal.earliest, goal.planned, goal.n, goal.done = 23.0, 3, 3, 1
+    text = T.choice_sentence(raw, goal, "sicm-raw", "the default (a fresh goal)")
+    assert "cannot cross before 9,200 episodes" in text
+    assert "every seed is at 85% or more" in text and "crossed at 5,920" in text
+    assert text.endswith("and the rule keeps ACDER, S-ICM on raw (o, g).")
+    # the fallback is the challenger's: no early answer (the rule would need the runs)
+    assert "cannot be applied yet" in T.choice_sentence(goal, raw, "sicm-raw", "x")
