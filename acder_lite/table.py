@@ -120,7 +120,15 @@ def mean_text(c: CellStat) -> str:
     if c.crossing is not None:
         text = units(c, c.crossing)
     elif c.why == "not yet" and c.evaluated_epochs is not None:
-        text = f"not yet (evaluated to epoch {c.evaluated_epochs:g})"
+        text = f"not yet (evaluated to epoch {c.evaluated_epochs:g}"
+        if c.earliest is not None and c.earliest > c.evaluated_epochs:
+            # what the seeds so far rule out (report.earliest_crossing)
+            text += (
+                "; cannot cross within budget"
+                if math.isinf(c.earliest)
+                else f"; not before {units(c, c.earliest)}"
+            )
+        text += ")"
     elif c.why == "not within budget" and c.budget_epochs:
         text = f"not within budget ({c.budget_epochs:g} epochs)"
     elif c.why.startswith("not before") and c.evaluated_epochs is not None:
@@ -233,10 +241,12 @@ CAPTION = (
     "threshold (Reach 100%, Push and Pick&Place 95%): the mean curve at the epoch "
     "evaluations, linearly interpolated, a seed stopped by the stop rule carrying its "
     "last 5 evaluations' mean forward; in Table I's unit of 400 episodes an epoch "
-    "(where our epoch holds fewer, our own episodes in brackets). Beside it a 95% "
-    "bootstrap interval over seeds (resampled with replacement; the share of resamples "
-    "whose mean curve crosses; 'beyond budget' where more than 2.5% never cross) and "
-    "each seed's own first crossing."
+    "(where our epoch holds fewer, our own episodes in brackets); for a cell still "
+    "training, how far its mean curve reaches and, where its seeds so far rule out an "
+    "earlier crossing, the earliest one it can still make ('not before'). Beside it a "
+    "95% bootstrap interval over seeds (resampled with replacement; the share of "
+    "resamples whose mean curve crosses; 'beyond budget' where more than 2.5% never "
+    "cross) and each seed's own first crossing."
 )
 
 

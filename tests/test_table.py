@@ -432,3 +432,17 @@ def test_choice_sentence_once_the_challenger_cannot_cross_first():
     assert text.endswith("and the rule keeps ACDER, S-ICM on raw (o, g).")
     # the fallback is the challenger's: no early answer (the rule would need the runs)
     assert "cannot be applied yet" in T.choice_sentence(goal, raw, "sicm-raw", "x")
+
+
+def test_an_unfinished_mean_curve_says_how_early_it_can_still_cross():
+    c = push_cell("sicm-raw-episode-goal", None, None, None)
+    c.why, c.evaluated_epochs = "not yet", 4.0
+    assert T.mean_text(c) == "not yet (evaluated to epoch 4)"
+    c.earliest = 24.0  # a slow seed rules out a crossing before epoch 24
+    assert T.mean_text(c) == "not yet (evaluated to epoch 4; not before 9,600)"
+    c.earliest = math.inf
+    assert (
+        T.mean_text(c) == "not yet (evaluated to epoch 4; cannot cross within budget)"
+    )
+    c.earliest = 3.0  # nothing beyond what the curve itself shows
+    assert T.mean_text(c) == "not yet (evaluated to epoch 4)"
