@@ -5,6 +5,7 @@ chapter 8, the house style of every chapter)."""
 import glob
 import json
 import os
+import re
 
 import pytest
 
@@ -33,3 +34,30 @@ def test_code_cells_are_short(path):
         if (n := len("".join(c["source"]).splitlines())) > MAX_CELL_LINES
     }
     assert not long, f"cells (index: lines) over {MAX_CELL_LINES} lines: {long}"
+
+
+GLUE_REF = re.compile(r"\{glue(?::\w+)?\}`([^`:]+)")
+GLUE_NAME = re.compile(r"glue\(\s*\"([^\"]+)\"")
+GLUE_PREFIX = re.compile(r"glue\(\s*f\"([^\"{]*)\{")
+
+
+@pytest.mark.parametrize("path", CHAPTERS, ids=os.path.basename)
+def test_every_glued_reference_is_glued(path):
+    """Each {glue:...}`name` of the text is glued by a code cell of the same chapter
+    (a name built with an f-string counts by its fixed prefix). `make book` fails on a
+    missing one (warnings are errors), and `make test` does not build the book."""
+    cells = json.load(open(path, encoding="utf-8"))["cells"]
+    code = "\n".join("".join(c["source"]) for c in cells if c["cell_type"] == "code")
+    names = set(GLUE_NAME.findall(code))
+    prefixes = [p for p in GLUE_PREFIX.findall(code) if p]
+    text = "\n".join(
+        "".join(c["source"]) for c in cells if c["cell_type"] == "markdown"
+    )
+    missing = sorted(
+        {
+            r
+            for r in GLUE_REF.findall(text)
+            if r not in names and not any(r.startswith(p) for p in prefixes)
+        }
+    )
+    assert not missing, f"referenced but never glued: {missing}"
