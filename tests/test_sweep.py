@@ -445,6 +445,18 @@ def _rows(run: Path) -> list[dict]:
         ]
 
 
+def _start(cmd, cwd) -> subprocess.Popen:
+    """A sweep in the background, its stdout and stderr together."""
+    return subprocess.Popen(
+        cmd,
+        cwd=cwd,
+        env=_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+
+
 def _wait_for(pred, proc, timeout):
     t0 = time.monotonic()
     while not pred():
@@ -506,14 +518,7 @@ def test_ray_retries_a_killed_worker_from_its_checkpoint(tmp_path):
     wall_s)."""
     results, epochs = tmp_path / "results", 6
     run = results / "FetchReach-v4" / "her" / "seed0"
-    proc = subprocess.Popen(
-        _sweep_cmd(results, [0], epochs),
-        cwd=tmp_path,
-        env=_env(),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
+    proc = _start(_sweep_cmd(results, [0], epochs), tmp_path)
     try:
         _wait_for(
             lambda: _epochs_done(run) >= 2 and (run / "checkpoint.pt").exists(),
@@ -556,14 +561,7 @@ def test_ray_ctrl_c_keeps_checkpoints_and_the_same_command_finishes(tmp_path):
     results = tmp_path / "results"
     run = results / "FetchReach-v4" / "her" / "seed0"
     cmd = _sweep_cmd(results, [0], 12)
-    proc = subprocess.Popen(
-        cmd,
-        cwd=tmp_path,
-        env=_env(),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
+    proc = _start(cmd, tmp_path)
     try:
         _wait_for(lambda: (run / "checkpoint.pt").exists(), proc, 300)
         proc.send_signal(signal.SIGINT)
@@ -652,14 +650,10 @@ def test_ray_sweep_starts_a_group_whose_hold_is_lifted_while_it_runs(tmp_path):
     path = results / "plan.toml"
     _two_group_plan(path, hold="second")
     first = results / "FetchReach-v4" / "her" / "seed0"
-    proc = subprocess.Popen(
+    proc = _start(
         [sys.executable, "-m", "acder_lite", "sweep", "--plan", str(path)]
         + ["--jobs", "1"],
-        cwd=tmp_path,
-        env=_env(),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
+        tmp_path,
     )
     try:
         _wait_for(lambda: (first / "train.log").exists(), proc, 300)
