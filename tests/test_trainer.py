@@ -58,9 +58,13 @@ def test_bfloat16_same_seed_same_progress(tmp_path):
     assert rows_of(tmp_path / "f" / "progress.csv") != a
 
 
-@pytest.mark.parametrize("method", ["her", "acder", "her-per"])
-def test_resumed_run_equals_uninterrupted(tmp_path, method):
-    kw = dict(method=method, env="FetchPush-v4", eval_every_cycles=2)
+@pytest.mark.parametrize(
+    "method, threads", [("her", 1), ("acder", 1), ("her-per", 1), ("acder", 2)]
+)
+def test_resumed_run_equals_uninterrupted(tmp_path, method, threads):
+    """threads=2: the two losses at once and the envs in two threads, through a
+    checkpoint too (the critic's frozen view follows the loaded weights)."""
+    kw = dict(method=method, env="FetchPush-v4", eval_every_cycles=2, threads=threads)
     full = tmp_path / "full"
     Trainer(tiny_config(epochs=4, **kw), str(full)).train(False)
     part = tmp_path / "part"
