@@ -683,14 +683,24 @@ def ratios(cells: list[CellStat], tasks=TASKS) -> list[RatioStat]:
     ]
 
 
+def complete(c: CellStat) -> bool:
+    """Every seed the plan plans for the cell has ended (without a plan: every seed
+    read has)."""
+    return c.unfinished == 0 and (c.planned is None or c.done >= c.planned)
+
+
 def separated(a: CellStat, b: CellStat) -> bool | None:
     """The readings' rule (experiments/readings/README.md, fixed before their last
     seeds were in): two settings are separated when each one's mean-curve crossing lies
     outside the other's 95% bootstrap interval. None while either lacks a crossing or an
-    interval (one whose lower end is beyond the budget is none). Traps: one crossing
+    interval (one whose lower end is beyond the budget is none), or has seeds still to
+    come (`complete`: the crossing and interval of fewer seeds than planned, e.g. the
+    committed ones of a cell still training, are not the rule's). Traps: one crossing
     outside the other's interval is not enough (with 3 seeds the intervals are wide and
     lopsided); equal crossings are never separated, whatever their intervals."""
     if any(v is None for v in (a.crossing, b.crossing, a.low, b.low, a.high, b.high)):
+        return None
+    if not (complete(a) and complete(b)):
         return None
     if not (math.isfinite(a.low) and math.isfinite(b.low)):
         return None
@@ -714,8 +724,7 @@ def cannot_cross_first(challenger: CellStat, incumbent: CellStat) -> bool:
     seeds are in."""
     return (
         incumbent.crossing is not None
-        and incumbent.unfinished == 0
-        and (incumbent.planned is None or incumbent.done >= incumbent.planned)
+        and complete(incumbent)
         and challenger.earliest is not None
         and challenger.earliest >= incumbent.crossing
     )

@@ -295,3 +295,19 @@ def test_a_challenger_that_cannot_cross_first():
     goal.earliest = 23.0
     raw.done, raw.unfinished = 2, 1  # the incumbent's crossing may still move
     assert not R.cannot_cross_first(goal, raw)
+
+
+def test_the_rule_waits_for_every_planned_seed():
+    """A cell with fewer seeds ended than planned (the committed seed of a cell still
+    training) has a crossing and an interval, but not the rule's."""
+    raw = push_cell("sicm-raw", 14.8, 9.7, 16.75)
+    one = push_cell("sicm-raw-episode-goal", 20.8, 20.8, 20.8)
+    assert R.separated(raw, one) is True  # as if complete
+    one.planned, one.done, one.n = 3, 1, 1
+    assert not R.complete(one)
+    assert R.separated(raw, one) is None and R.choose(raw, one, "sicm-raw") == (
+        None,
+        None,
+    )
+    one.done = 3
+    assert R.complete(one) and R.separated(raw, one) is True
