@@ -189,9 +189,8 @@ def scripted_push(o: np.ndarray, g: np.ndarray, height_offset: float) -> np.ndar
     when the gripper must go round one), lower to the block's height
     (`height_offset`, the env's), push; then the other block. It shows the task can be
     solved in 100 steps (tests/test_multistep.py, chapter 9)."""
-    if o.shape != (40,) or g.shape != (
-        6,
-    ):  # the full observation only, not a selection
+    # the full observation only, not a selection
+    if o.shape != (40,) or g.shape != (6,):
         raise ValueError(f"scripted_push: o (40,) and g (6,), got {o.shape}, {g.shape}")
     grip = o[:3]
     ag, g = o[3:9].reshape(2, 3), g.reshape(2, 3)  # object{0,1}_pos (OBS_LAYOUT)

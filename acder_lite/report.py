@@ -260,6 +260,12 @@ def on_grid(curves: list[SeedCurve]) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return x, Y, C
 
 
+def seed_level(n: int, threshold: float) -> float:
+    """The level every one of n seeds (each at most 1) must be at for their mean to
+    reach `threshold`: 1 - n (1 - threshold)."""
+    return 1 - n * (1 - threshold)
+
+
 def earliest_crossing(curves: list[SeedCurve], n: int, threshold: float) -> float:
     """The earliest epoch at which the mean curve of `n` seeds can still reach
     `threshold`, given `curves`, the seeds read so far (finished or not; n >=
@@ -272,7 +278,7 @@ def earliest_crossing(curves: list[SeedCurve], n: int, threshold: float) -> floa
     reaching it leaves no crossing at all (inf). 0 while no seed has an evaluation.
     Trap: this bounds the mean curve only; a bootstrap resample that repeats the fast
     seeds can cross earlier."""
-    level = 1 - n * (1 - threshold)
+    level = seed_level(n, threshold)
     bound = 0.0
     for s in curves:
         if not len(s.x):
@@ -733,9 +739,13 @@ def cannot_cross_first(challenger: CellStat, incumbent: CellStat) -> bool:
 def choose(a: CellStat, b: CellStat, fallback: str) -> tuple[str | None, bool | None]:
     """(the setting the readings' rule picks, `separated(a, b)`): where the runs
     separate `a` and `b`, the one with the earlier crossing; where they do not,
-    `fallback` (the name of the one the paper's text favours); None while undecided."""
+    `fallback` (the name of the one the paper's text favours); None while undecided.
+    Before `b`'s last seeds are in, `a` (when it is the fallback) is already the answer
+    once `b` cannot cross first (`cannot_cross_first`): then (a.name, None)."""
     sep = separated(a, b)
     if sep is None:
+        if fallback == a.name and cannot_cross_first(b, a):
+            return a.name, None
         return None, None
     if not sep:
         return fallback, False

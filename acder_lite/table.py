@@ -26,10 +26,10 @@ from .report import (
     PAPER_EPISODES_PER_EPOCH,
     CellStat,
     RatioStat,
-    cannot_cross_first,
     choose,
     grid_cells,
     ratios,
+    seed_level,
     summarize,
 )
 from .runs import load_runs, planned_cells
@@ -373,9 +373,9 @@ def choice_sentence(a: CellStat, b: CellStat, fallback: str, why: str) -> str:
     two crossings, which lies inside the other's interval, the setting chosen
     (`fallback`, for `why`, where the runs do not separate them)."""
     chosen, sep = choose(a, b, fallback)
-    if chosen is None and fallback == a.name and cannot_cross_first(b, a):
+    if chosen is not None and sep is None:  # decided by b's bound (report.choose)
         n = max(b.planned or 0, b.n)
-        level = 1 - n * (1 - b.threshold)
+        level = seed_level(n, b.threshold)
         when = (
             "within its budget"
             if math.isinf(b.earliest)

@@ -290,6 +290,8 @@ def test_a_challenger_that_cannot_cross_first():
     goal = push_cell("sicm-raw-episode-goal", None, None, None)
     goal.earliest, goal.planned, goal.n, goal.done = 23.0, 3, 3, 1
     assert R.cannot_cross_first(goal, raw)
+    # the rule's answer before the challenger's last seeds: the incumbent, by the bound
+    assert R.choose(raw, goal, "sicm-raw") == ("sicm-raw", None)
     goal.earliest = 14.0  # its unfinished seeds could still make it cross first
     assert not R.cannot_cross_first(goal, raw)
     goal.earliest = 23.0
