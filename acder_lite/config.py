@@ -116,27 +116,29 @@ METHODS: dict[str, dict] = {
 # Paper, section V-B: eta = 0.05 on Reach, 0.8 elsewhere; alpha0 = 0.8 (0.7 on the
 # multi-step task); 25 / 50 / 100 epochs. Table I: Reach counts episodes to 100% test
 # success, Push and Pick&Place to 95%. Baselines' experiment/config.py: FetchReach's
-# epochs have 10 cycles, the others 50.
+# epochs have 10 cycles, the others 50. gamma: Baselines' experiment/config.py sets
+# gamma = 1 - 1/T from the episode's horizon T (0.98 at T = 50, 0.99 at T = 100); its
+# clip_return = 1/(1 - gamma) follows (tests/test_protocol.py checks the rule per task).
 TASK_PRESETS: dict[str, dict] = {
     "FetchReach-v4": dict(
-        eta=0.05, alpha0=0.8, epochs=25, cycles=10, success_threshold=1.0
+        eta=0.05, alpha0=0.8, epochs=25, cycles=10, success_threshold=1.0, gamma=0.98
     ),
     "FetchPush-v4": dict(
-        eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95
+        eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95, gamma=0.98
     ),
     "FetchPickAndPlace-v4": dict(
-        eta=0.8, alpha0=0.8, epochs=100, cycles=50, success_threshold=0.95
+        eta=0.8, alpha0=0.8, epochs=100, cycles=50, success_threshold=0.95, gamma=0.98
     ),
     "FetchSlide-v4": dict(
-        eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95
+        eta=0.8, alpha0=0.8, epochs=50, cycles=50, success_threshold=0.95, gamma=0.98
     ),
     # the multi-step task (section V-B: alpha0 = 0.7, 400 epochs; Table I's 95% rule)
     "FetchPushMultiStep-v0": dict(
-        eta=0.8, alpha0=0.7, epochs=400, cycles=50, success_threshold=0.95
+        eta=0.8, alpha0=0.7, epochs=400, cycles=50, success_threshold=0.95, gamma=0.99
     ),
 }
 
-PRESET_FIELDS = ("eta", "alpha0", "epochs", "cycles", "success_threshold")
+PRESET_FIELDS = ("eta", "alpha0", "epochs", "cycles", "success_threshold", "gamma")
 """Config fields whose None means "the task's preset" (filled by `Config.resolve`)."""
 
 TARGET_CLIPS = ("baselines", "wide")
@@ -239,8 +241,10 @@ class Config:
     """Adam learning rate of the actor."""
     lr_critic: float = 1e-3
     """Adam learning rate of the critic."""
-    gamma: float = 0.98
-    """Discount factor."""
+    gamma: float | None = None
+    """Discount factor, in [0, 1). None: the task preset, Baselines' 1 - 1/T for the
+    task's horizon T (0.98 on the 50-step Fetch tasks, 0.99 on the 100-step multi-step
+    Push); Baselines' target clip [-1/(1-gamma), 0] follows from it."""
     polyak: float = 0.95
     """Target <- polyak*target + (1-polyak)*main, once per cycle."""
     action_l2: float = 1.0
@@ -457,6 +461,8 @@ class Config:
             if not getattr(self, name) > 0:
                 bad(name, "a number > 0")
         for name in ("gamma", "polyak"):
+            if name in PRESET_FIELDS and getattr(self, name) is None:
+                continue
             if not 0 <= getattr(self, name) < 1:
                 bad(name, "a number in [0, 1)")
         for name in ("noise_eps", "random_eps", "per_alpha", "per_beta0"):

@@ -261,7 +261,7 @@ def test_the_batched_pusher_is_the_pusher_row_by_row():
 def test_config_knows_the_task():
     assert ID in ENV_IDS and ID in OBJECT_ENVS
     assert TASK_PRESETS[ID] == dict(
-        eta=0.8, alpha0=0.7, epochs=400, cycles=50, success_threshold=0.95
+        eta=0.8, alpha0=0.7, epochs=400, cycles=50, success_threshold=0.95, gamma=0.99
     )
     cfg = Config(env=ID, method="her-ebp").resolve()
     assert (cfg.eta, cfg.alpha0, cfg.epochs, cfg.cycles) == (0.8, 0.7, 400, 50)

@@ -10,7 +10,7 @@ import os
 import pytest
 import torch
 
-from acder_lite.config import METHODS, Config, upgrade_legacy
+from acder_lite.config import METHODS, TASK_PRESETS, Config, upgrade_legacy
 from acder_lite.core import mlp
 from acder_lite.trainer import Trainer, target_clip
 
@@ -63,6 +63,22 @@ def test_protocol_v2_defaults_per_task(env, epochs, cycles, threshold):
     assert cfg.workers * cfg.episodes_per_cycle * cfg.cycles == (
         80 if env == "FetchReach-v4" else 400
     )
+
+
+@pytest.mark.parametrize("env", sorted(TASK_PRESETS))
+def test_gamma_is_baselines_one_minus_one_over_the_horizon(env):
+    """Baselines' experiment/config.py: gamma = 1 - 1/T, T the env's max_episode_steps;
+    the critic's target clip [-1/(1-gamma), 0] follows (-50 at T = 50, -100 at 100)."""
+    import gymnasium as gym
+
+    import acder_lite  # noqa: F401  (registers the multi-step Push)
+
+    T = gym.spec(env).max_episode_steps
+    cfg = Config(env=env, method="her").resolve()
+    assert cfg.gamma == pytest.approx(1 - 1 / T, abs=1e-12)
+    clip = target_clip(cfg.target_clip, cfg.switches, cfg.eta, cfg.gamma)
+    assert clip[0] == pytest.approx(-T) and clip[1] == 0.0
+    assert Config(env=env, gamma=0.9).resolve().gamma == 0.9  # an explicit value wins
 
 
 def test_explicit_values_beat_the_presets():
