@@ -18,6 +18,9 @@ given threads, as training steps them) + the update FLOPs of one episode
 threads' time, process_time), the protocol's end-of-epoch evaluation included: the
 figure that decides a grid's core-hours.
 
+`--compile-update` times the update with its losses under torch.compile
+(`Config.compile_update`); they compile in the warm-up cycle, which is not timed.
+
 `--device cuda` (or auto on a machine with CUDA) times training with the networks on the
 GPU; the matmul rate is the GPU's then, and each timed block ends in a synchronisation.
 """
@@ -65,16 +68,25 @@ def update_flops(trainer) -> float:
     """FLOPs of one update step, counted with both losses in this thread.
 
     Trap: FlopCounterMode sees only the thread that entered it; with `split_update`
-    the actor's loss runs in a second one and would go uncounted."""
+    the actor's loss runs in a second one and would go uncounted. Compiled losses
+    (`compile_update`) are counted in their eager form, the same matmuls: under the
+    counter's dispatch mode torch.compile would compile them again."""
     from torch.utils.flop_counter import FlopCounterMode
 
+    from .ddpg import compute_loss_pi, compute_loss_q
+
     agent = trainer.agent
-    thread, agent.actor_thread = agent.actor_thread, None
+    saved = agent.actor_thread, agent.loss_q, agent.loss_pi
+    agent.actor_thread, agent.loss_q, agent.loss_pi = (
+        None,
+        compute_loss_q,
+        compute_loss_pi,
+    )
     try:
         with FlopCounterMode(display=False) as fc:
             trainer.update_step()
     finally:
-        agent.actor_thread = thread
+        agent.actor_thread, agent.loss_q, agent.loss_pi = saved
     return float(fc.get_total_flops())
 
 
@@ -92,6 +104,7 @@ def run_bench(args) -> int:
         seed=0,
         update_dtype="float32" if both else args.update_dtype,
         device=getattr(args, "device", "auto"),
+        compile_update=getattr(args, "compile_update", False),
     )
     tr = Trainer(cfg)
     dev = tr.device
@@ -160,6 +173,7 @@ def run_bench(args) -> int:
         f"env={cfg.env} method={cfg.method} workers={W} threads={args.threads} "
         f"device={dev} "
         f"minibatch={cfg.batch_size * W} update_dtype={dtypes[0]} "
+        f"compile_update={int(cfg.compile_update)} "
         f"update_ms={upd_s * 1e3:.1f} "
         f"update_gflop={flops / 1e9:.2f} update_share_of_matmul={upd_gflops / mm:.2f}"
     )

@@ -55,6 +55,15 @@ def add_config_options(p: argparse.ArgumentParser) -> None:
             continue
         doc = docs.get(f.name, "").replace("%", "%%")
         default = f.default if f.default is not dataclasses.MISSING else None
+        if f.type in (bool, "bool"):  # a flag: given is True, absent is the default
+            p.add_argument(
+                "--" + f.name.replace("_", "-"),
+                dest=f.name,
+                action="store_true",
+                default=None,
+                help=f"{doc} (default: off)".strip(),
+            )
+            continue
         p.add_argument(
             "--" + f.name.replace("_", "-"),
             dest=f.name,
@@ -261,6 +270,12 @@ def build_parser() -> argparse.ArgumentParser:
         default="auto",
         choices=["auto", "cpu", "cuda"],
         help="where the networks and the update run (auto: CUDA if any)",
+    )
+    b.add_argument(
+        "--compile-update",
+        action="store_true",
+        help="the update's losses under torch.compile (Config.compile_update; "
+        "compiled in the warm-up cycle)",
     )
     b.set_defaults(func=cmd_bench)
 

@@ -324,6 +324,17 @@ class Config:
     (experiments/speed/README.md). The losses share no trained tensor, so the numbers
     are those of a one-thread update on the same intra-op threads: at threads=2 a run
     equals the threads=1 run bit for bit (tests/test_rollout.py)."""
+    compile_update: bool = False
+    """Compile the critic's and the actor's loss, forward and backward, with
+    torch.compile (inductor; `acder_lite.compiled`): the matmuls stay MKL's, the ops
+    between them are fused. It moves floats: the fused ops round in another order, so a
+    run's weights equal the eager ones within float32 tolerance only
+    (tests/test_compiled.py), not bit for bit. Off by default, and off for the
+    reproduction grid, whose runs resume across code changes and must compute as they
+    started (experiments/bit-identity/). The first update compiles (about 25 s of wall
+    time here, a few seconds from inductor's on-disk cache); then an update measured
+    0.94-0.95 of eager's CPU time on one thread and a training episode about 0.95
+    (experiments/speed/README.md). A resumed run keeps its checkpoint's setting."""
     update_dtype: str = "auto"
     """Precision of the actor/critic gradient step: 'auto' (bfloat16 only on a CPU with
     native bfloat16 matmul, AVX512-BF16 or AMX; float32 elsewhere:
@@ -498,6 +509,8 @@ class Config:
             bad("alpha0", "a number in [0, 1] (paper, Eq. 9)")
         if self.restart_goal not in ("resample", "episode"):
             bad("restart_goal", "'resample' or 'episode'")
+        if not isinstance(self.compile_update, bool):
+            bad("compile_update", "True or False (the flag --compile-update)")
         if self.update_dtype not in UPDATE_DTYPES:
             bad("update_dtype", " or ".join(repr(x) for x in UPDATE_DTYPES))
         if self.device not in DEVICES:

@@ -58,7 +58,9 @@ class DDPG:
     The networks are initialised on the CPU and then moved, so a seed gives the same
     weights on every device; `update`'s batches must be on it (`Trainer.batch_tensors`).
     `cfg.split` (`Config.split_update`): `update` computes the two losses at the same
-    time, the actor's in a second thread.
+    time, the actor's in a second thread. `cfg.compile_update`: both losses under
+    torch.compile (`compiled.compile_loss`); off, `loss_q` and `loss_pi` are the
+    functions above themselves.
     """
 
     def __init__(self, in_dim: int, act_dim: int, cfg, max_u: float = 1.0, device=None):
@@ -72,6 +74,14 @@ class DDPG:
         self.critic_targ = copy.deepcopy(self.critic).requires_grad_(False)
         # the critic as the actor's loss sees it: its weights, without their gradients
         self.critic_frozen = frozen_view(self.critic)
+        self.loss_q, self.loss_pi = compute_loss_q, compute_loss_pi
+        if cfg.compile_update:  # opt-in: moves floats (Config.compile_update)
+            from .compiled import compile_loss
+
+            self.loss_q = compile_loss(compute_loss_q)
+            self.loss_pi = compile_loss(compute_loss_pi)
+        # compiled losses compile on their first call: let one thread make both
+        self.compiled_once = not cfg.compile_update
         self.actor_thread = (
             ThreadPoolExecutor(1, thread_name_prefix="actor-loss")
             if cfg.split
@@ -105,12 +115,14 @@ class DDPG:
         `critic_frozen`), so they may run at once: with `actor_thread` the actor's
         forward and backward run in it while this thread does the critic's (torch
         releases the GIL inside its ops). Each op runs as it would alone, so the
-        result is the same bit for bit; the steps come after both.
+        result is the same bit for bit; the steps come after both. Compiled losses
+        (`cfg.compile_update`) compile in this thread, one after the other, on the
+        first update.
         """
 
         def critic_grads():
             with self._autocast():
-                q_loss, td = compute_loss_q(
+                q_loss, td = self.loss_q(
                     self.critic,
                     self.actor_targ,
                     self.critic_targ,
@@ -125,16 +137,17 @@ class DDPG:
 
         def actor_grads():
             with self._autocast():  # autocast is per thread: enter it in this one
-                pi_loss = compute_loss_pi(
+                pi_loss = self.loss_pi(
                     self.actor, self.critic_frozen, batch, self.cfg.action_l2
                 )
             self.pi_opt.zero_grad(set_to_none=True)
             pi_loss.backward()
             return pi_loss
 
-        if self.actor_thread is None:
+        if self.actor_thread is None or not self.compiled_once:
             q_loss, td = critic_grads()
             pi_loss = actor_grads()
+            self.compiled_once = True
         else:
             future = self.actor_thread.submit(actor_grads)
             try:

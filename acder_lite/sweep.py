@@ -501,6 +501,9 @@ def train_argv(cell: Cell, args, resume: bool) -> list[str]:
     argv += ["--resume", str(cell.out)] if resume else ["--out", str(cell.out)]
     options = {**cell.options, **passed_options(args), "threads": args.threads}
     for name, value in options.items():
+        if isinstance(value, bool):  # a Config flag (compile_update): given or not
+            argv += ["--" + name.replace("_", "-")] if value else []
+            continue
         argv += ["--" + name.replace("_", "-"), str(value)]
     return argv + shlex.split(args.train_args or "") + ["--quiet"]
 

@@ -50,6 +50,7 @@ def one_line_error(p, *needles):
         (["--method", "acder-baselines-clip"], ["method", "acder"]),
         (["--method", "her-ebp"], ["her-ebp", "object", "FetchPush-v4"]),
         (["--no-such-option", "1"], ["unrecognized", "--no-such-option"]),
+        (["--compile-update=yes"], ["--compile-update", "ignored explicit argument"]),
     ],
 )
 def test_train_bad_input(cli, tmp_path, args, needles):
