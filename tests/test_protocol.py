@@ -69,11 +69,9 @@ def test_protocol_v2_defaults_per_task(env, epochs, cycles, threshold):
 def test_gamma_is_baselines_one_minus_one_over_the_horizon(env):
     """Baselines' experiment/config.py: gamma = 1 - 1/T, T the env's max_episode_steps;
     the critic's target clip [-1/(1-gamma), 0] follows (-50 at T = 50, -100 at 100)."""
-    import gymnasium as gym
+    from acder_lite.envs import horizon
 
-    import acder_lite  # noqa: F401  (registers the multi-step Push)
-
-    T = gym.spec(env).max_episode_steps
+    T = horizon(env)  # the registered time limit
     cfg = Config(env=env, method="her").resolve()
     assert cfg.gamma == pytest.approx(1 - 1 / T, abs=1e-12)
     clip = target_clip(cfg.target_clip, cfg.switches, cfg.eta, cfg.gamma)
