@@ -17,9 +17,9 @@ def args() -> tuple[str, int]:
     return method, threads
 
 
-def warm_trainer(method: str, threads: int) -> Trainer:
+def warm_trainer(method: str, threads: int, **config) -> Trainer:
     """A FetchPush trainer after one training cycle (buffer filled, networks trained
-    once), so every timed update is a steady-state one."""
+    once), so every timed update is a steady-state one. `config`: more Config fields."""
     cfg = Config(
         env="FetchPush-v4",
         method=method,
@@ -27,6 +27,7 @@ def warm_trainer(method: str, threads: int) -> Trainer:
         threads=threads,
         seed=0,
         update_dtype="float32",
+        **config,
     )
     tr = Trainer(cfg)
     tr.train_cycle()

@@ -11,28 +11,15 @@ import statistics as st
 import sys
 import time
 
-from acder_lite.config import Config
-from acder_lite.trainer import Trainer
-from common import args
+from common import args, warm_trainer
 
 method, threads = args()
 reps = int(sys.argv[3]) if len(sys.argv) > 3 else 8
 trainers = {}
 for name in ("eager", "compiled"):
-    cfg = Config(
-        env="FetchPush-v4",
-        method=method,
-        workers=4,
-        threads=threads,
-        seed=0,
-        update_dtype="float32",
-        compile_update=name == "compiled",
-    )
-    tr = Trainer(cfg)
     w = time.perf_counter()
-    tr.train_cycle()
+    trainers[name] = warm_trainer(method, threads, compile_update=name == "compiled")
     print(f"{name}: warm-up cycle {time.perf_counter() - w:.1f} s wall", flush=True)
-    trainers[name] = tr
 per_cycle = 4 * trainers["eager"].cfg.episodes_per_cycle
 cpu = {k: [] for k in trainers}
 wall = {k: [] for k in trainers}
