@@ -380,7 +380,8 @@ class Trainer:
     @torch.no_grad()
     def evaluate(self) -> float:
         """Mean is_success at the last step of test_episodes deterministic episodes per
-        worker."""
+        worker. Also `q_mean`: the critic's Q(s_0, pi(s_0)) at the test episodes' first
+        states (Baselines' test/mean_Q averages Q over every step instead)."""
         succ, q = [], []
         for _ in range(self.cfg.test_episodes):
             ep = run_episodes(self.test_envs, self.policy, self.T, pool=self.pool)
