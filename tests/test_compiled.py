@@ -87,12 +87,13 @@ def test_compiled_split_update_is_the_one_thread_compiled_update():
 
 
 def test_compile_update_option():
-    from acder_lite.cli import _given, build_parser
+    from acder_lite.cli import build_parser
     from acder_lite import sweep as S
 
     parse = build_parser().parse_args
-    assert _given(parse(["train", "--compile-update", "--out", "x"]))["compile_update"]
-    assert "compile_update" not in _given(parse(["train", "--out", "x"]))
+    assert parse(["train", "--compile-update", "--out", "x"]).compile_update is True
+    # absent: None, i.e. not given, so the Config default (or a checkpoint's) holds
+    assert parse(["train", "--out", "x"]).compile_update is None
     assert parse(["bench", "--compile-update"]).compile_update is True
     assert parse(["bench"]).compile_update is False
     with pytest.raises(ConfigError, match="compile_update='yes' is not allowed"):
