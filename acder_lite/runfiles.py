@@ -14,7 +14,7 @@ import platform
 import numpy as np
 import torch
 
-from .io import save_torch, write_csv, write_json
+from .io import arrays_as_tensors, save_torch, write_csv, write_json
 
 
 def versions() -> dict:
@@ -112,7 +112,7 @@ class RunFiles:
     def save(self, state: dict, policy_state: dict) -> None:
         """checkpoint.pt (everything, to resume) and policy.pt
         (the actor and its normalisers)."""
-        save_torch(self.path("checkpoint.pt"), state)
+        save_torch(self.path("checkpoint.pt"), arrays_as_tensors(state))
         save_torch(self.path("policy.pt"), dict(policy=policy_state))
 
     def write_done(self, info: dict) -> None:

@@ -173,7 +173,9 @@ def test_diagnose_refuses_a_checkpoint_of_another_state_layout(tmp_path, cli):
     Trainer(
         tiny_config(env="FetchPush-v4", method="acder", epochs=1, cycles=1), str(run)
     ).train(progress=False)
-    ck = torch.load(run / "checkpoint.pt", weights_only=False)
+    from acder_lite.io import load_torch
+
+    ck = load_torch(str(run / "checkpoint.pt"))
     ck["buffer"]["state"] = np.zeros(ck["buffer"]["state"].shape[:2] + (292,))
     torch.save(ck, run / "checkpoint.pt")
     r = cli("diagnose", str(run))

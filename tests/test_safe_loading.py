@@ -375,9 +375,11 @@ def test_a_fresh_checkpoint_loads_safely_and_whole(fresh, method):
     tr = fresh[method + ":trainer"]
     path = os.path.join(fresh[method], "checkpoint.pt")
     ck = load_torch(path)
-    _same(
-        ck, torch.load(path, weights_only=False)
-    )  # our own file: the unsafe way gives the same, whole
+    # our own file: the unsafe way gives the same, whole (its arrays stored as tensors)
+    raw = torch.load(path, weights_only=False)
+    assert isinstance(raw["buffer"]["state"][aio.NUMPY_TAG], torch.Tensor)
+    _same(ck, aio.tensors_as_arrays(raw))
+    _same(ck["buffer"], tr.buffer.state_dict())  # the arrays, bit for bit
     assert set(aio.CHECKPOINT_KEYS) <= set(ck)
     assert (
         str(ck["versions"]["torch"]) == torch.__version__
@@ -477,3 +479,63 @@ def test_resume_refuses_a_file_that_is_not_a_training_state(tmp_path, cli, kind)
     assert not marker.exists() and sorted(p.name for p in run.iterdir()) == [
         "checkpoint.pt"
     ]
+
+
+# ----- checkpoint.pt stores numpy arrays as tensors (io.arrays_as_tensors)
+
+
+def test_arrays_as_tensors_round_trip_bit_for_bit(tmp_path):
+    """Arrays of every dtype a checkpoint holds come back equal in dtype, shape and
+    bits (NaN, -0.0 and float64 tails included); tensors, numbers, strings and a torch
+    state_dict's metadata are left as they are; an old file (arrays pickled) reads
+    the same."""
+    from collections import OrderedDict
+
+    sd = OrderedDict(w=torch.arange(3.0))
+    sd._metadata = OrderedDict({"": {"version": 1}})
+    rng = np.random.default_rng(0)
+    obj = dict(
+        policy=dict(actor=sd),
+        buffer=dict(
+            o=rng.normal(size=(4, 3, 2)).astype(np.float32),
+            state=np.array([[np.nan, -0.0, 1 / 3, np.finfo(np.float64).tiny]]),
+            success=np.array([True, False]),
+            idx=np.arange(5, dtype=np.int64)[::-2],  # a strided view
+            big=rng.normal(size=(1000, 64)),  # where pickling's latin-1 text shows
+            n=4,
+        ),
+        rows=[dict(a=1.5)],
+        pair=(np.zeros(2, np.float32), "x"),
+    )
+    enc = aio.arrays_as_tensors(obj)
+    assert isinstance(enc["buffer"]["o"][aio.NUMPY_TAG], torch.Tensor)
+    assert enc["policy"] is obj["policy"] and enc["rows"] is obj["rows"]
+    assert obj["buffer"]["success"].dtype == bool  # the input is not changed
+    new, old = str(tmp_path / "new.pt"), str(tmp_path / "old.pt")
+    aio.save_torch(new, enc)
+    aio.save_torch(old, obj)
+    for path in (new, old):
+        back = aio.tensors_as_arrays(torch.load(path, weights_only=False))
+        _same(back, obj)
+        for k, a in obj["buffer"].items():
+            if isinstance(a, np.ndarray):
+                assert back["buffer"][k].tobytes() == a.tobytes(), k
+        assert back["policy"]["actor"]._metadata == sd._metadata
+    assert os.path.getsize(new) < 0.8 * os.path.getsize(old)
+
+
+def test_a_checkpoint_of_the_old_layout_still_resumes(tmp_path):
+    """A checkpoint.pt written before arrays were stored as tensors (the runs in
+    flight when it changed) loads into the same trainer state."""
+    d = tmp_path / "run"
+    tr = Trainer(tiny_config(env="FetchPush-v4", method="acder", epochs=1), str(d))
+    tr.train(progress=False)
+    path = str(d / "checkpoint.pt")
+    ck = load_torch(path)
+    aio.save_torch(path, ck)  # arrays pickled as numpy arrays, as before
+    assert isinstance(torch.load(path, weights_only=False)["buffer"]["o"], np.ndarray)
+    again = load_torch(path)
+    _same(again, ck)
+    t2 = Trainer(tiny_config(env="FetchPush-v4", method="acder", epochs=1), None)
+    t2.load_state_dict(again)
+    _same(t2.buffer.state_dict(), tr.buffer.state_dict())
