@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import shlex
 import sys
 from pathlib import Path
@@ -198,7 +199,9 @@ def read_run(d: str | Path) -> dict:
     rows (`read_progress`), config (upgraded "config"), planned_epochs, budget_epochs
     (the same, else the config's epochs), budget (training episodes of budget_epochs),
     episodes_per_epoch (cycles x episodes_per_cycle x workers), done (done.json
-    present), done_info (its content, or None), ended (`how_it_ended`), update_dtype.
+    present), done_info (its content, or None), ended (`how_it_ended`), update_dtype,
+    same_as (the run folder the sweep copied it from, `acder_lite.same_as`; None if it
+    was trained here).
     """
     d = Path(d)
     whole = read_config(d)
@@ -233,6 +236,9 @@ def read_run(d: str | Path) -> dict:
         done_info=done,
         ended=how_it_ended(done, planned),
         update_dtype=cfg.get("update_dtype", "float32"),
+        same_as=None
+        if not (whole.get("same_as") or {}).get("run")
+        else os.path.normpath(os.path.join(d, whole["same_as"]["run"])),
     )
 
 

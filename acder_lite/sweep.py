@@ -39,6 +39,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from . import same_as
 from .config import ENV_IDS, METHODS, Config, ConfigError
 
 EXIT_INTERRUPTED = 130
@@ -78,6 +79,8 @@ class Cell:
     passed to train as --field value."""
     hold: str = ""
     """A plan group on hold: why (the cell is skipped with this note)."""
+    source: Path | None = None
+    """A finished run this cell is (a plan group's `same_as`): copied, not trained."""
 
     @property
     def name(self) -> str:
@@ -104,11 +107,12 @@ def cell_state(out: Path) -> str:
 
 def plan_cell(cell: Cell) -> Cell:
     """`cell` with its action (and note) set from its config and what its
-    folder holds."""
+    folder holds: 'run', 'resume', 'skip', or 'copy' (a `same_as` run that has
+    finished and has this cell's config; PlanError if its config differs)."""
     # the one check of names and values: Config's own (an EBP cell on Reach, a bad
     # option)
     try:
-        Config(
+        config = Config(
             **dict(cell.options, env=cell.env, method=cell.method, seed=cell.seed)
         ).resolve()
     except (ConfigError, TypeError) as e:
@@ -119,6 +123,15 @@ def plan_cell(cell: Cell) -> Cell:
         cell.action, cell.note = "skip", "already complete"
     elif cell.hold:
         cell.action, cell.note = "skip", f"on hold: {cell.hold}"
+    elif cell.source is not None:
+        verdict, why = same_as.check(config.to_dict(), cell.source)
+        if verdict == "differs":
+            raise PlanError(why)
+        cell.action, cell.note = (
+            ("copy", f"same as {cell.source}")
+            if verdict == "copy"
+            else ("skip", f"waits: {why}")
+        )
     elif state == "interrupted":
         cell.action, cell.note = "resume", "checkpoint.pt found"
     elif state == "orphan":
@@ -168,6 +181,7 @@ _GROUP_KEYS = {
     "queue",
     "hold",
     "note",
+    "same_as",
 }
 
 
@@ -179,7 +193,10 @@ def read_plan(path: str | Path) -> list[Cell]:
     (lists); `root` (folder of <env>/<name>/seed<k>, relative to the plan's own folder;
     default: that folder); `name` (the folder under <env>/, default the method; needs
     one method); `config` (Config fields the runs set, e.g. {sicm_input = "raw"});
-    `queue` (default "grid"); `hold` (a reason: the group is planned but not started). A
+    `queue` (default "grid"); `hold` (a reason: the group is planned but not started);
+    `same_as` (a folder of seed<k> runs, relative to the plan's folder, that these cells
+    are: each is copied once it has finished, if its config equals the cell's, see
+    `same_as.check`; needs one env and one method). A
     `[defaults]` table gives every group its keys (a group's own win; `config` tables
     merge). Cells of different queues alternate, so two queues share the cores; within a
     queue they keep the file's order.
@@ -229,6 +246,11 @@ def read_plan(path: str | Path) -> list[Cell]:
             raise PlanError(
                 f"{where}: name needs exactly one method, not {len(g['methods'])}"
             )
+        if "same_as" in g and (len(g["envs"]), len(g["methods"])) != (1, 1):
+            raise PlanError(
+                f"{where}: same_as needs exactly one env and one method, not "
+                f"{len(g['envs'])} and {len(g['methods'])}"
+            )
         options = g["config"]
         try:
             Config(**dict(options, env=g["envs"][0], method=g["methods"][0])).resolve()
@@ -245,8 +267,15 @@ def read_plan(path: str | Path) -> list[Cell]:
                 "",
                 options=dict(options),
                 hold=str(g.get("hold", "")),
+                source=None
+                if "same_as" not in g
+                else Path(os.path.normpath(path.parent / g["same_as"])) / f"seed{seed}",
             )
-            queues.setdefault(str(g.get("queue", "grid")), []).append(plan_cell(cell))
+            try:
+                cell = plan_cell(cell)
+            except PlanError as e:
+                raise PlanError(f"{where}: {e}") from None
+            queues.setdefault(str(g.get("queue", "grid")), []).append(cell)
     names = [c.name for q in queues.values() for c in q]
     dup = next((n for n in names if names.count(n) > 1), None)
     if dup:
@@ -508,6 +537,43 @@ def train_argv(cell: Cell, args, resume: bool) -> list[str]:
     return argv + shlex.split(args.train_args or "") + ["--quiet"]
 
 
+def copy_cell(cell: Cell, args) -> str:
+    """Copy a 'copy' cell's `same_as` run into its folder once it is checked against the
+    cell's whole config (the plan's fields, the sweep's options and --threads); returns
+    'copied' or 'FAILED: why' (one line)."""
+    if args.train_args:
+        return (
+            "FAILED: a same_as cell cannot be checked against --train-args; "
+            "allowed: no --train-args"
+        )
+    try:
+        config = Config(
+            **{
+                **cell.options,
+                **passed_options(args),
+                "threads": args.threads,
+                "env": cell.env,
+                "method": cell.method,
+                "seed": cell.seed,
+            }
+        ).resolve()
+    except ConfigError as e:
+        return f"FAILED: {e}"
+    verdict, why = same_as.check(config.to_dict(), cell.source)
+    if verdict != "copy":
+        return f"FAILED: {why}"
+    same_as.copy_run(
+        cell.source,
+        cell.out,
+        dict(
+            run=os.path.relpath(cell.source, cell.out),  # portable: from this folder
+            compared="every Config field but " + ", ".join(same_as.NEUTRAL_FIELDS),
+            by="sweep: a plan group's same_as",
+        ),
+    )
+    return "copied"
+
+
 # ----- the task (runs in a Ray worker process)
 
 
@@ -699,11 +765,13 @@ def run(args) -> int:
                 + (f"  ({c.note})" if c.note else "")
             )
         counts = {
-            a: sum(c.action == a for c in cells) for a in ("run", "resume", "skip")
+            a: sum(c.action == a for c in cells)
+            for a in ("run", "resume", "copy", "skip")
         }
         _say(
             f"dry run: {counts['run']} to run, {counts['resume']} to resume, "
-            f"{counts['skip']} to skip; jobs={args.jobs} threads={args.threads}"
+            f"{counts['copy']} to copy, {counts['skip']} to skip; "
+            f"jobs={args.jobs} threads={args.threads}"
         )
         return 0
     if args.address:
@@ -713,10 +781,20 @@ def run(args) -> int:
     for c in cells:
         if c.action == "skip":
             _say(f"skip   {c.name} ({c.note})")
-    todo = [c for c in cells if c.action != "skip"]
+    copied = dict(done=0, failed=0)
+    for c in cells:
+        if c.action == "copy":  # no Ray needed: a copy takes seconds
+            _copy(c, args, copied)
+    todo = [c for c in cells if c.action not in ("skip", "copy")]
     if not todo:
-        _say(f"nothing to run: {len(cells)} skipped")
-        return 0
+        made = "".join(
+            f"{copied[k]} {word}, "
+            for k, word in (("done", "copied"), ("failed", "failed"))
+            if copied[k]
+        )
+        skipped = len(cells) - copied["done"] - copied["failed"]
+        _say(f"nothing to run: {made}{skipped} skipped")
+        return 1 if copied["failed"] else 0
     import ray
 
     try:
@@ -740,12 +818,22 @@ def run(args) -> int:
     interrupt_on_signals()  # `kill PID` of a background sweep cancels its cells cleanly
     replan = (lambda: read_plan(args.plan)) if args.plan is not None else None
     try:
-        return _drive(todo, args, len(cells) - len(todo), replan)
+        skipped = len(cells) - len(todo) - copied["done"] - copied["failed"]
+        return _drive(todo, args, skipped, replan, copied)
     finally:
         ray.shutdown()
 
 
-def _drive(todo: list[Cell], args, skipped: int, replan=None) -> int:
+def _copy(cell: Cell, args, counts: dict) -> None:
+    """Copy one 'copy' cell (`copy_cell`), count it and say so."""
+    status = copy_cell(cell, args)
+    counts["done" if status == "copied" else "failed"] += 1
+    _say(f"finish {cell.name}: {status} (same_as {cell.source})")
+
+
+def _drive(
+    todo: list[Cell], args, skipped: int, replan=None, copied: dict | None = None
+) -> int:
     import ray
     from tqdm import tqdm
 
@@ -756,24 +844,31 @@ def _drive(todo: list[Cell], args, skipped: int, replan=None) -> int:
     # a local Ray gets `jobs` cells at a time (CellQueue says why); a cluster all
     queue = CellQueue(todo, None if args.address else args.jobs, replan)
     refs: dict = {}
-
-    def start() -> None:
-        for c in queue.take(len(refs)):
-            refs[task.remote(c, args)] = c
-
-    start()
-    _say(
-        f"{len(todo)} cells ({sum(c.action == 'resume' for c in todo)} to resume), "
-        f"threads={args.threads} each"
-        + ("" if args.address else f", local Ray of {args.jobs * args.threads} CPUs")
-    )
     counts = dict(done=0, failed=0, interrupted=0)
+    for key, n in (copied or {}).items():  # the copies made before Ray started
+        counts[key] += n
     bar = tqdm(
         total=len(todo),
         unit="cell",
         dynamic_ncols=True,
         file=sys.stderr,
         disable=not sys.stderr.isatty(),
+    )
+
+    def start() -> None:
+        while cells := queue.take(len(refs)):
+            for c in cells:
+                if c.action == "copy":  # a same_as run that finished meanwhile
+                    _copy(c, args, counts)
+                    bar.update(1)
+                else:
+                    refs[task.remote(c, args)] = c
+
+    start()
+    _say(
+        f"{len(todo)} cells ({sum(c.action == 'resume' for c in todo)} to resume), "
+        f"threads={args.threads} each"
+        + ("" if args.address else f", local Ray of {args.jobs * args.threads} CPUs")
     )
     t0 = time.monotonic()
     try:

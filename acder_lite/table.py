@@ -322,6 +322,28 @@ def and_join(items: list[str]) -> str:
     return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
 
 
+def copies_sentence(runs: list[dict], root: str | Path | None = None) -> str:
+    """Which runs the sweep copied from elsewhere (a plan group's `same_as`), by cell
+    and source folder (relative to `root` if given), as one sentence; "" if none
+    was copied."""
+    by_cell: dict[tuple, list] = {}
+    for r in runs:
+        if r.get("same_as"):
+            source = Path(r["same_as"]).parent
+            if root is not None and source.is_relative_to(root):
+                source = source.relative_to(root)
+            key = (r["env"], r["name"], str(source))
+            by_cell.setdefault(key, []).append(r["seed"])
+    return sentence(
+        [
+            f"{label(name)}'s seed{'s' if len(seeds) > 1 else ''} "
+            f"{and_join([str(s) for s in sorted(seeds)])} on {task_label(env)} "
+            f"{'are the runs' if len(seeds) > 1 else 'is the run'} of `{source}`"
+            for (env, name, source), seeds in sorted(by_cell.items())
+        ]
+    )
+
+
 def grid_state(cells: list[CellStat]) -> str:
     """How far the grid is: cells with a finished seed, seeds finished of those planned
     (cells outside the grid, such as protocol v1's acder-baselines-clip, are not

@@ -98,7 +98,7 @@ def test_dry_run(grid, capsys):
         ["resume", "FetchReach-v4/her/seed1"],
         ["run", "FetchReach-v4/her/seed2"],
     ] + [["skip", f"FetchReach-v4/her-ebp/seed{k}"] for k in range(3)]
-    assert "1 to run, 1 to resume, 4 to skip" in out[-1]
+    assert "1 to run, 1 to resume, 0 to copy, 4 to skip" in out[-1]
     assert not (
         grid / "FetchReach-v4" / "her" / "seed2"
     ).exists()  # a dry run creates nothing
@@ -675,3 +675,150 @@ def test_ray_sweep_starts_a_group_whose_hold_is_lifted_while_it_runs(tmp_path):
         (results / "FetchReach-v4" / m / f"seed{k}" / "done.json").exists()
         for m, k in (("her", 0), ("her", 1), ("her-per", 0))
     )
+
+
+def finished_run(d: Path, **fields) -> Path:
+    """A finished run folder as train leaves it, its config resolved from `fields`."""
+    from acder_lite.config import Config
+
+    config = Config(**fields).resolve().to_dict()
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "config.json").write_text(
+        __import__("json").dumps(
+            dict(config=config, command="python -m acder_lite ...")
+        )
+    )
+    (d / "progress.csv").write_text("epoch,episodes,test_success\n1,400,0.5\n")
+    (d / "policy.pt").write_bytes(b"\x00policy bytes\xff")
+    (d / "done.json").write_text('{"epochs": 1}\n')
+    return d
+
+
+SAME_AS = """
+[[group]]
+envs = ["FetchPush-v4"]
+methods = ["acder"]
+seeds = [0, 1]
+same_as = "../exp/FetchPush-v4/sicm-raw"
+config = { update_dtype = "float32"%s }
+"""
+
+
+def test_same_as_copies_a_finished_run_with_the_cells_config(tmp_path, capsys):
+    """A same_as cell whose run has finished with its config is copied, not trained
+    (no Ray); one whose run has not finished waits; the same command again skips it."""
+    exp = tmp_path / "exp" / "FetchPush-v4" / "sicm-raw"
+    finished_run(
+        exp / "seed0",
+        env="FetchPush-v4",
+        method="acder",
+        seed=0,
+        update_dtype="float32",
+        sicm_input="raw",
+    )
+    touch(exp / "seed1", "config.json", "progress.csv", "checkpoint.pt")  # in flight
+    (tmp_path / "results").mkdir()
+    plan_file = tmp_path / "results" / "plan.toml"
+    plan_file.write_text(SAME_AS % "")
+    cells = S.read_plan(plan_file)
+    assert [(c.name, c.action) for c in cells] == [
+        ("FetchPush-v4/acder/seed0", "copy"),
+        ("FetchPush-v4/acder/seed1", "skip"),
+    ]
+    assert (
+        cells[1].note.startswith("waits: its same_as run") and "seed1" in cells[1].note
+    )
+    assert S.run(parse(["--plan", str(plan_file)])) == 0
+    out = capsys.readouterr().out
+    assert "finish FetchPush-v4/acder/seed0: copied" in out
+    assert "nothing to run: 1 copied, 1 skipped" in out
+    run = tmp_path / "results" / "FetchPush-v4" / "acder" / "seed0"
+    for name in ("progress.csv", "policy.pt", "done.json"):
+        assert (run / name).read_bytes() == (exp / "seed0" / name).read_bytes()
+    config = __import__("json").loads((run / "config.json").read_text())
+    source = __import__("json").loads((exp / "seed0" / "config.json").read_text())
+    assert (
+        config["config"] == source["config"] and config["command"] == source["command"]
+    )
+    assert config["same_as"]["run"] == "../../../../exp/FetchPush-v4/sicm-raw/seed0"
+    from acder_lite import runs, table
+
+    copied = runs.read_run(run)
+    assert copied["same_as"] == str(exp / "seed0") and copied["seed"] == 0
+    assert table.copies_sentence([copied, runs.read_run(exp / "seed0")]) == (
+        f"DDPG+ACDER's seed 0 on Push is the run of `{exp}`."
+    )
+    assert table.copies_sentence([copied], root=tmp_path) == (
+        "DDPG+ACDER's seed 0 on Push is the run of `exp/FetchPush-v4/sicm-raw`."
+    )
+    assert "threads" in config["same_as"]["compared"]
+    assert not list(run.glob(".*.tmp"))
+    assert S.read_plan(plan_file)[0].note == "already complete"
+
+
+@pytest.mark.parametrize(
+    "extra, argv, msg",
+    [
+        (", eta = 0.5", [], "differs in eta: 0.8 there, 0.5 here"),
+        ("", ["--epochs", "7"], "differs in epochs: 50 there, 7 here"),
+        ("", ["--train-args=--cycles 2"], "cannot be checked against --train-args"),
+    ],
+)
+def test_same_as_refuses_a_run_with_another_config(tmp_path, capsys, extra, argv, msg):
+    """A same_as run whose config differs from the cell's, by the plan (exit 2, one
+    line) or by the sweep's own options (the cell fails): nothing is copied."""
+    exp = tmp_path / "exp" / "FetchPush-v4" / "sicm-raw"
+    finished_run(
+        exp / "seed0",
+        env="FetchPush-v4",
+        method="acder",
+        seed=0,
+        update_dtype="float32",
+    )
+    (tmp_path / "results").mkdir()
+    plan_file = tmp_path / "results" / "plan.toml"
+    plan_file.write_text((SAME_AS % extra).replace("[0, 1]", "[0]"))
+    rc = S.run(parse(["--plan", str(plan_file), *argv]))
+    captured = capsys.readouterr()
+    if extra:  # the plan itself is wrong
+        assert rc == 2 and captured.err.count("\n") == 1 and msg in captured.err
+        assert "group 1" in captured.err
+    else:
+        assert rc == 1 and msg in captured.out and "FAILED" in captured.out
+    assert not (tmp_path / "results" / "FetchPush-v4").exists()
+
+
+def test_same_as_threads_do_not_count(tmp_path):
+    """Threads, the split update and parallel stepping leave the numbers as they are
+    (tests/test_rollout.py): a run at --threads 2 is the cell's at --threads 1."""
+    from acder_lite import same_as
+    from acder_lite.config import Config
+
+    run = finished_run(
+        tmp_path / "seed0",
+        env="FetchReach-v4",
+        method="her",
+        seed=0,
+        threads=2,
+        step_threads=2,
+    )
+    cell = Config(env="FetchReach-v4", method="her", seed=0).resolve().to_dict()
+    assert same_as.check(cell, run) == ("copy", "")
+    other = Config(env="FetchReach-v4", method="her", seed=1).resolve().to_dict()
+    assert same_as.check(other, run)[0] == "differs"
+    (run / "policy.pt").unlink()
+    assert same_as.check(cell, run) == (
+        "differs",
+        f"same_as run {str(run)!r} has no policy.pt",
+    )
+
+
+def test_same_as_needs_one_env_and_one_method(tmp_path, capsys):
+    path = tmp_path / "plan.toml"
+    path.write_text(
+        "[[group]]\nenvs = ['FetchReach-v4', 'FetchPush-v4']\nmethods = ['her']\n"
+        "seeds = [0]\nsame_as = 'x'\n"
+    )
+    assert S.run(parse(["--plan", str(path), "--dry-run"])) == 2
+    err = capsys.readouterr().err
+    assert "same_as needs exactly one env and one method, not 2 and 1" in err
