@@ -3,6 +3,7 @@ and one tiny real interrupted sweep."""
 
 import argparse
 import csv
+import json
 import os
 import signal
 import socket
@@ -684,9 +685,7 @@ def finished_run(d: Path, **fields) -> Path:
     config = Config(**fields).resolve().to_dict()
     d.mkdir(parents=True, exist_ok=True)
     (d / "config.json").write_text(
-        __import__("json").dumps(
-            dict(config=config, command="python -m acder_lite ...")
-        )
+        json.dumps(dict(config=config, command="python -m acder_lite ..."))
     )
     (d / "progress.csv").write_text("epoch,episodes,test_success\n1,400,0.5\n")
     (d / "policy.pt").write_bytes(b"\x00policy bytes\xff")
@@ -704,9 +703,9 @@ config = { update_dtype = "float32"%s }
 """
 
 
-def test_same_as_copies_a_finished_run_with_the_cells_config(tmp_path, capsys):
-    """A same_as cell whose run has finished with its config is copied, not trained
-    (no Ray); one whose run has not finished waits; the same command again skips it."""
+def reading_run(tmp_path) -> Path:
+    """A finished ACDER run on Push, seed 0, in `exp/FetchPush-v4/sicm-raw/seed0`, and
+    an empty `results/` beside it for the plan; returns the run's parent folder."""
     exp = tmp_path / "exp" / "FetchPush-v4" / "sicm-raw"
     finished_run(
         exp / "seed0",
@@ -714,10 +713,16 @@ def test_same_as_copies_a_finished_run_with_the_cells_config(tmp_path, capsys):
         method="acder",
         seed=0,
         update_dtype="float32",
-        sicm_input="raw",
     )
-    touch(exp / "seed1", "config.json", "progress.csv", "checkpoint.pt")  # in flight
     (tmp_path / "results").mkdir()
+    return exp
+
+
+def test_same_as_copies_a_finished_run_with_the_cells_config(tmp_path, capsys):
+    """A same_as cell whose run has finished with its config is copied, not trained
+    (no Ray); one whose run has not finished waits; the same command again skips it."""
+    exp = reading_run(tmp_path)
+    touch(exp / "seed1", "config.json", "progress.csv", "checkpoint.pt")  # in flight
     plan_file = tmp_path / "results" / "plan.toml"
     plan_file.write_text(SAME_AS % "")
     cells = S.read_plan(plan_file)
@@ -735,8 +740,8 @@ def test_same_as_copies_a_finished_run_with_the_cells_config(tmp_path, capsys):
     run = tmp_path / "results" / "FetchPush-v4" / "acder" / "seed0"
     for name in ("progress.csv", "policy.pt", "done.json"):
         assert (run / name).read_bytes() == (exp / "seed0" / name).read_bytes()
-    config = __import__("json").loads((run / "config.json").read_text())
-    source = __import__("json").loads((exp / "seed0" / "config.json").read_text())
+    config = json.loads((run / "config.json").read_text())
+    source = json.loads((exp / "seed0" / "config.json").read_text())
     assert (
         config["config"] == source["config"] and config["command"] == source["command"]
     )
@@ -767,15 +772,7 @@ def test_same_as_copies_a_finished_run_with_the_cells_config(tmp_path, capsys):
 def test_same_as_refuses_a_run_with_another_config(tmp_path, capsys, extra, argv, msg):
     """A same_as run whose config differs from the cell's, by the plan (exit 2, one
     line) or by the sweep's own options (the cell fails): nothing is copied."""
-    exp = tmp_path / "exp" / "FetchPush-v4" / "sicm-raw"
-    finished_run(
-        exp / "seed0",
-        env="FetchPush-v4",
-        method="acder",
-        seed=0,
-        update_dtype="float32",
-    )
-    (tmp_path / "results").mkdir()
+    reading_run(tmp_path)
     plan_file = tmp_path / "results" / "plan.toml"
     plan_file.write_text((SAME_AS % extra).replace("[0, 1]", "[0]"))
     rc = S.run(parse(["--plan", str(plan_file), *argv]))
