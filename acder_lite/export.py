@@ -15,9 +15,10 @@ order `rollout.Policy` applies it (so the actions are the same numbers):
 
 The robot side:
 
-    import torch policy = torch.jit.load("push.ts") u = policy(torch.as_tensor(obs),
-    torch.as_tensor(goal))  # (..., 4): dx, dy, dz, grip policy.obs_names,
-    policy.goal_names                      # what each input number is
+    import torch
+    policy = torch.jit.load("push.ts")
+    u = policy(torch.as_tensor(obs), torch.as_tensor(goal))  # (..., 4): dx dy dz grip
+    policy.obs_names, policy.goal_names  # what each input number is
 
 Inputs may be one observation or a batch (leading axes), of any float dtype; the action
 is float32. A wrong input width raises a ValueError naming the widths it accepts. The
@@ -223,12 +224,12 @@ torch.save({"u": u, "meta": json.loads(extra["acder_lite.json"]), "imported": ou
 
 
 def run_standalone(path: str, o, g, timeout: float = 120.0) -> dict:
-    """Load the TorchScript file `path` in a fresh Python process that can only import
-    torch's world (another folder, no PYTHONPATH to this repository; `ROBOT_SIDE`) and
-    act on observations `o` and goals `g` (numpy, batched). Returns dict(u: numpy
-    actions, meta: the file's metadata, imported: the acder_lite modules that process
-    imported, which should be none). RuntimeError with the child's stderr if it
-    fails."""
+    """Load the TorchScript file `path` in a fresh Python process (`ROBOT_SIDE`, run in
+    another folder without PYTHONPATH) and act on observations `o` and goals `g` (numpy,
+    batched). Returns dict(u: numpy actions, meta: the file's metadata, imported: the
+    acder_lite modules that process imported, which should be none). Trap: the venv's
+    editable install would still let the child import acder_lite; `imported` is what
+    shows that it did not. RuntimeError with the child's stderr if it fails."""
     import subprocess
     import sys
     import tempfile
@@ -253,6 +254,26 @@ def run_standalone(path: str, o, g, timeout: float = 120.0) -> dict:
             raise RuntimeError(f"the robot-side process failed: {p.stderr.strip()}")
         out = torch.load(os.path.join(tmp, "out.pt"))
     return dict(u=out["u"].numpy(), meta=out["meta"], imported=out["imported"])
+
+
+def compare_with_package(pol: dict, out: str, source: str = "", n: int = 100, seed=0):
+    """Export `pol` to `out` (`export_torchscript`), give the file in a fresh process
+    (`run_standalone`) and the in-package policy the same `n` random full observations
+    and goals, and compare: dict(gap = the largest absolute action difference,
+    imported = the acder_lite modules the robot side imported, meta)."""
+    import numpy as np
+
+    meta = export_torchscript(pol, out, source=source)
+    rng = np.random.default_rng(seed)
+    o = rng.normal(size=(n, len(meta["full_obs_names"]))).astype(np.float32)
+    g = rng.normal(size=(n, len(meta["goal_names"]))).astype(np.float32)
+    robot = run_standalone(out, o, g)
+    u = Policy.from_state_dict(pol)(
+        o[:, indices(meta["full_obs_names"], meta["obs"])], g
+    )
+    return dict(
+        gap=float(np.abs(robot["u"] - u).max()), imported=robot["imported"], meta=meta
+    )
 
 
 def check_onnx() -> None:

@@ -185,8 +185,8 @@ PUSH_LIFT = 0.07
 def scripted_push(o: np.ndarray, g: np.ndarray, height_offset: float) -> np.ndarray:
     """One action of a scripted pusher (nothing learnt), for one observation vector `o`
     (40) and goal `g` (6), re-planned every step: take the first block more than 2 cm
-    from its target, get behind it on the line target -> block (lifted over the blocks
-    when the gripper must go round one), lower to the block's height
+    from its target, get behind it on the line target -> block (flying above the
+    blocks whenever it moves to a new spot), lower to the block's height
     (`height_offset`, the env's), push; then the other block. It shows the task can be
     solved in 100 steps (tests/test_multistep.py, chapter 9)."""
     # the full observation only, not a selection
@@ -226,6 +226,43 @@ def scripted_pusher(height_offset: float):
     return lambda o, g: np.stack(
         [scripted_push(oi, gi, height_offset) for oi, gi in zip(o, g)]
     )
+
+
+def pusher_successes(seeds, horizon: int = MAX_EPISODE_STEPS) -> np.ndarray:
+    """Whether the scripted pusher (`scripted_pusher`) has both blocks on their targets
+    at the last step, one bool per seed: the first `rollout.run_episodes` episode of an
+    env made with that seed. Chapter 9's evidence that the task is solvable."""
+    from .envs import make_env
+    from .rollout import run_episodes
+
+    envs = [make_env(ENV_ID, seed=s) for s in seeds]
+    ep = run_episodes(envs, scripted_pusher(envs[0].height_offset), horizon)
+    for e in envs:
+        e.close()
+    return ep["success"]
+
+
+def random_counts(episodes: int, seed: int = 0, workers: int = 4) -> dict:
+    """A uniformly random arm's episodes (rounded down to a multiple of `workers`),
+    stepped as training steps them: dict(episodes, success = the share with both blocks
+    on their targets at the last step, one = the share with at least one there)."""
+    from .envs import make_env
+    from .rollout import run_episodes
+
+    rng = np.random.default_rng(seed)
+    envs = [make_env(ENV_ID, seed=100 + i) for i in range(workers)]
+    threshold = envs[0].distance_threshold
+    succ, one = [], []
+    for _ in range(episodes // workers):
+        act = lambda o, g: rng.uniform(-1.0, 1.0, (len(o), 4))  # noqa: E731
+        ep = run_episodes(envs, act, MAX_EPISODE_STEPS)
+        succ.append(ep["success"])
+        last = block_distances(ep["ag"][:, -1], ep["g"][:, -1])
+        one.append((last < threshold).any(axis=1))
+    for e in envs:
+        e.close()
+    succ, one = np.concatenate(succ), np.concatenate(one)
+    return dict(episodes=succ.size, success=succ.mean(), one=one.mean())
 
 
 class MujocoFetchPushMultiStepEnv(MujocoFetchEnv, EzPickle):

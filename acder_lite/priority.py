@@ -240,8 +240,9 @@ def trajectory_energy(
 ) -> np.ndarray:
     """Trajectory energy of the object (Zhao & Tresp 2018, Eq. 1-5), shape (n,).
 
-    `ag`: object position along each episode, (n, T+1, 3) (only the first 3 columns are
-    used). For steps k = 1..T (as their `ReplayBufferEnergy.store_episode`):
+    `ag`: the objects' positions along each episode, (n, T+1, 3k) for k objects (the
+    multi-step push has 2; their energies add, see below). For steps k = 1..T (as their
+    `ReplayBufferEnergy.store_episode`), for one object:
       potential  U_k = m g (z_k - z_0)                (height relative to the start)
       kinetic    K_k = 0.5 m |(p_k - p_{k-1}) / dt|^2 (backward finite difference)
       total      E_k = w_potential U_k + w_kinetic K_k, and E_0 = 0

@@ -111,6 +111,17 @@ def test_loads_in_a_process_without_acder_lite(tmp_path):
     assert meta["clip_obs"] == 200.0 and meta["norm_clip"] == 5.0
 
 
+def test_compare_with_package(tmp_path):
+    """The book's check (chapter 10): export, act on the robot side and in the package
+    on the same random inputs, compare."""
+    from acder_lite.export import compare_with_package
+
+    pol = policy_dict("FetchPush-v4", "simplified")
+    check = compare_with_package(pol, str(tmp_path / "push.ts"), source="p.pt", n=20)
+    assert check["imported"] == [] and check["gap"] <= 1e-6
+    assert check["meta"]["source"] == "p.pt" and (tmp_path / "push.ts").is_file()
+
+
 def test_build_refuses_a_policy_whose_sizes_are_not_its_task(tmp_path):
     from acder_lite.io import CheckpointError
 

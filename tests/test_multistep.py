@@ -357,3 +357,12 @@ def test_every_method_runs_on_the_multistep_push(method):
 def test_the_pusher_refuses_a_selected_observation():
     with pytest.raises(ValueError, match=r"o \(40,\)"):
         M.scripted_push(np.zeros(17), np.zeros(6), 0.42)
+
+
+def test_the_books_pusher_and_random_counts():
+    """Chapter 9's numbers: the scripted pusher's successes per seed, and a random arm's
+    shares, deterministic for a seed."""
+    wins = M.pusher_successes(range(3))
+    assert wins.dtype == bool and wins.shape == (3,) and wins.sum() >= 2
+    a, b = M.random_counts(4, seed=0), M.random_counts(4, seed=0)
+    assert a == b and a["episodes"] == 4 and 0 <= a["success"] <= a["one"] <= 1
