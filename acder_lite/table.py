@@ -268,9 +268,42 @@ def ratio_sentence(r: RatioStat) -> str:
     return f"on {where} our HER/ACDER ratio is {ratio_text(r)}{paper}"
 
 
-def verdict(rs: list[RatioStat]) -> str:
+def verdict(rs: list[RatioStat], cells: list[CellStat] | None = None) -> str:
     """Whether the paper's HER/ACDER ratio lies inside our 95% interval, task by task,
-    and what that says about its factor of five."""
+    and what that says about its factor of five. With `cells` (the summaries the ratios
+    come from), a task whose HER or ACDER cell still has planned seeds to come is named
+    with its seed counts and the verdict is said to be provisional."""
+    partial = _still_training(rs, cells or [])
+    text = _verdict(rs)
+    if not partial or text.startswith("We cannot say yet"):
+        return text
+    return (
+        f"So far ({'; '.join(partial)}): {text[:1].lower()}{text[1:]} "
+        "Those cells are still training, so this can change."
+    )
+
+
+def _still_training(rs: list[RatioStat], cells: list[CellStat]) -> list[str]:
+    """'Push: HER 3 of 5 seeds, ACDER 3 of 5' for each task with a ratio whose HER or
+    ACDER cell has not ended all its planned seeds (`report.complete`)."""
+    from .report import complete
+
+    by = {(c.env, c.name): c for c in cells}
+    out = []
+    for r in rs:
+        her, acder = by.get((r.env, "her")), by.get((r.env, "acder"))
+        if r.ours is None or her is None or acder is None:
+            continue
+        if not (complete(her) and complete(acder)):
+            counts = [
+                f"{name} {c.done} of {c.planned if c.planned is not None else c.done}"
+                for name, c in (("HER", her), ("ACDER", acder))
+            ]
+            out.append(f"{task_label(r.env)}: {counts[0]} seeds, {counts[1]}")
+    return out
+
+
+def _verdict(rs: list[RatioStat]) -> str:
     where = {"inside": [], "above": [], "below": []}
     for r in rs:
         if r.ours is None or r.paper is None or r.low is None or math.isnan(r.low):

@@ -394,6 +394,14 @@ def test_sentences_for_the_book():
         and "does not reproduce" in v
     )
     assert "cannot say yet" in T.verdict(RE.ratios([her], tasks=(P,)))
+    # cells with planned seeds still to come: the verdict is provisional
+    her.planned, acder.planned = 5, 5
+    partial = T.verdict([r], [her, acder])
+    counts = f"HER {her.done} of 5 seeds, ACDER {acder.done} of 5"
+    assert partial.startswith(f"So far (Push: {counts}): the paper's")
+    assert partial.endswith("Those cells are still training, so this can change.")
+    her.planned, acder.planned = her.done, acder.done
+    assert T.verdict([r], [her, acder]) == v
     assert T.sentence(["on Push a", "b"]) == "On Push a; b."
 
 
