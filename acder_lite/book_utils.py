@@ -138,3 +138,13 @@ def seed_crossings(
         last = rows[-1]["episodes"]
         out.append(dict(seed=r["seed"], hit=hit, best=best, episodes=last))
     return out
+
+
+def crossing_text(s: dict) -> str:
+    """One seed of `seed_crossings` in a few words: 'seed 0: 4,000', or 'seed 1: not
+    reached (best 0.90 in 10,000)'."""
+    if s["hit"] is not None:
+        return f"seed {s['seed']}: {s['hit']:,.0f}"
+    return (
+        f"seed {s['seed']}: not reached (best {s['best']:.2f} in {s['episodes']:,.0f})"
+    )

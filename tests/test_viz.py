@@ -133,6 +133,12 @@ def test_seed_crossings_reads_each_seeds_first_crossing():
     assert out[0] == dict(seed=0, hit=None, best=0.3, episodes=800.0)
     assert out[1] == dict(seed=1, hit=800.0, best=0.96, episodes=1200.0)
     assert seed_crossings(runs, "FetchPush-v4", "her-per", 0.95) == []
+    from acder_lite.book_utils import crossing_text
+
+    assert [crossing_text(s) for s in out] == [
+        "seed 0: not reached (best 0.30 in 800)",
+        "seed 1: 800",
+    ]
 
 
 def test_plot_block_paths_draws_each_block_and_target_in_its_colour():
