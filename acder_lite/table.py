@@ -423,6 +423,23 @@ def order_sentence(cells: list[CellStat]) -> str:
     return "; ".join(parts)
 
 
+def readings_decisions(norm: CellStat, raw: CellStat, goal: CellStat) -> dict:
+    """The readings' two decisions in words, as experiments/readings/README.md fixes
+    them: (a) `norm` against (b) `raw`, the paper's eta values deciding where the runs
+    do not separate them; then the winner against (c) `goal`, the default (a fresh
+    goal) deciding likewise. dict(choice, goal_choice: `choice_sentence`s; decided:
+    whether the second rule has been applied)."""
+    chosen, _ = choose(norm, raw, "sicm-raw")
+    winner = raw if chosen in (None, "sicm-raw") else norm
+    return dict(
+        choice=choice_sentence(norm, raw, "sicm-raw", "the paper's eta values"),
+        goal_choice=choice_sentence(
+            winner, goal, winner.name, "the default, a fresh goal"
+        ),
+        decided=choose(winner, goal, winner.name)[0] is not None,
+    )
+
+
 def choice_sentence(a: CellStat, b: CellStat, fallback: str, why: str) -> str:
     """What the readings' rule (`report.choose`) makes of `a` and `b`, in words: the
     two crossings, which lies inside the other's interval, the setting chosen

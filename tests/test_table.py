@@ -429,6 +429,21 @@ def test_choice_sentence_says_what_the_rule_made_of_the_runs():
     )
 
 
+def test_readings_decisions_chain_the_two_rules():
+    """(a) and (b) not separated: the paper's eta decides (b); then (b) against (c)."""
+    norm = cell("sicm-normalised", [0.5, 1.0, 1.0, 1.0])
+    raw = cell("sicm-raw", [0.4, 1.0, 1.0, 1.0])
+    goal = cell("sicm-raw-episode-goal", [0.0, 0.0, 0.5, 1.0])
+    d = T.readings_decisions(norm, raw, goal)
+    assert d["choice"] == T.choice_sentence(
+        norm, raw, "sicm-raw", "the paper's eta values"
+    )
+    assert d["goal_choice"] == T.choice_sentence(
+        raw, goal, "sicm-raw", "the default, a fresh goal"
+    )
+    assert d["decided"] == (RE.choose(raw, goal, "sicm-raw")[0] is not None)
+
+
 def test_choice_sentence_once_the_challenger_cannot_cross_first():
     raw = push_cell("sicm-raw", 14.8, 9.7, 16.75)
     raw.done, raw.planned = 3, 3
