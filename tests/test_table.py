@@ -430,8 +430,9 @@ def test_choice_sentence_says_what_the_rule_made_of_the_runs():
 
 
 def test_readings_decisions_chain_the_two_rules():
-    """(a) and (b) not separated: the paper's eta decides (b); then (b) against (c)."""
-    norm = cell("sicm-normalised", [0.5, 1.0, 1.0, 1.0])
+    """(a) and (b) not separated (equal crossings never are): the paper's eta decides
+    (b); then (b) against (c)."""
+    norm = cell("sicm-normalised", [0.4, 1.0, 1.0, 1.0])
     raw = cell("sicm-raw", [0.4, 1.0, 1.0, 1.0])
     goal = cell("sicm-raw-episode-goal", [0.0, 0.0, 0.5, 1.0])
     d = T.readings_decisions(norm, raw, goal)
