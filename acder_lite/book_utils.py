@@ -148,3 +148,34 @@ def crossing_text(s: dict) -> str:
     return (
         f"seed {s['seed']}: not reached (best {s['best']:.2f} in {s['episodes']:,.0f})"
     )
+
+
+EPISODE_STATS = {
+    "success": "success at the last step",
+    "start": "already solved at step 0",
+    "earned": "success, not solved at step 0",
+    "any_step": "within 5 cm at some step",
+    "moved": "achieved goal moved > 1 cm",
+}
+"""What `episode_stats` counts per episode, in words (chapter 1's legend)."""
+
+
+def episode_stats(ep: dict, env) -> dict:
+    """Per episode of `rollout.run_episodes`' output `ep` on `env`'s task (arrays with a
+    leading episode axis): the `EPISODE_STATS` as bools, and `dist`, the achieved goal's
+    distance to the goal at steps 1..T. 'moved': the achieved goal ever more than 1 cm
+    from where it started; 'start': the reset itself within the distance threshold."""
+    import numpy as np
+
+    start = env.compute_reward(ep["ag"][:, 0], ep["g"][:, 0], None) == 0
+    dist = np.linalg.norm(ep["ag"][:, 1:] - ep["g"], axis=-1)
+    moved = np.linalg.norm(ep["ag"] - ep["ag"][:, :1], axis=-1).max(axis=1) > 0.01
+    succ = ep["success"].astype(bool)
+    return dict(
+        success=succ,
+        start=start,
+        earned=succ & ~start,
+        any_step=(dist < env.distance_threshold).any(axis=1),
+        moved=moved,
+        dist=dist,
+    )

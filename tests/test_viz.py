@@ -164,3 +164,24 @@ def test_plot_block_paths_draws_each_block_and_target_in_its_colour():
         assert np.allclose(lines[-1].get_xydata()[0], ep["g"][0, 3 * k - 3 : 3 * k - 1])
         plt.close(fig)
         env.close()
+
+
+def test_episode_stats_on_hand_made_episodes():
+    """Chapter 1's counts: solved at the reset, earned, near at some step, moved."""
+    from acder_lite import envs as E
+    from acder_lite.book_utils import EPISODE_STATS, episode_stats
+
+    env = E.make_env("FetchPush-v4", seed=0)
+    g = np.zeros((3, 2, 3))
+    ag = np.zeros((3, 3, 3))
+    ag[0] += [0.01, 0, 0]  # starts on the goal and stays: solved at step 0
+    ag[1] = [[0.3, 0, 0], [0.02, 0, 0], [0.3, 0, 0]]  # passes near, moves, ends off
+    ag[2] = [[0.3, 0, 0], [0.3, 0, 0], [0.005, 0, 0]]  # earned at the last step
+    ep = dict(ag=ag, g=g, success=np.array([1.0, 0.0, 1.0]))
+    s = episode_stats(ep, env)
+    assert set(EPISODE_STATS) <= set(s) and s["dist"].shape == (3, 2)
+    assert s["start"].tolist() == [True, False, False]
+    assert s["earned"].tolist() == [False, False, True]
+    assert s["any_step"].tolist() == [True, True, True]
+    assert s["moved"].tolist() == [False, True, True]
+    env.close()
