@@ -9,7 +9,9 @@ Each cell is one Ray task reserving `--threads` CPUs, so Ray packs as many runs 
 The task decides when it starts what its folder needs: nothing (`done.json`),
 `train --resume` (a `checkpoint.pt`) or a fresh `train --out`; so Ray's own retry after
 a lost worker (killed process, lost node) resumes the run from its last checkpoint, and
-the trainer's determinism makes the result equal to an uninterrupted run's. Training
+the trainer's determinism makes the result equal to an uninterrupted run's. A plan's
+`same_as` cell is not trained at all: the sweep copies the finished run it names, once
+the two configs are checked equal (`acder_lite.same_as`). Training
 runs in the task's own worker process, which reports its pid in the first line it writes
 to `train.log`. Ctrl-C cancels the running tasks: each stops at once and keeps its last
 end-of-epoch checkpoint; the same command continues. A local sweep hands Ray only as
