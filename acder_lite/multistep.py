@@ -253,8 +253,8 @@ def random_counts(episodes: int, seed: int = 0, workers: int = 4) -> dict:
     envs = [make_env(ENV_ID, seed=100 + i) for i in range(workers)]
     threshold = envs[0].distance_threshold
     succ, one = [], []
+    act = lambda o, g: rng.uniform(-1.0, 1.0, (len(o), 4))  # noqa: E731
     for _ in range(episodes // workers):
-        act = lambda o, g: rng.uniform(-1.0, 1.0, (len(o), 4))  # noqa: E731
         ep = run_episodes(envs, act, MAX_EPISODE_STEPS)
         succ.append(ep["success"])
         last = block_distances(ep["ag"][:, -1], ep["g"][:, -1])

@@ -577,19 +577,6 @@ def side_by_side(results: dict[str, dict]) -> str:
 # ----- the command
 
 
-def finished_run(root, *folders: str) -> str | None:
-    """The first of `folders` (relative to `root`) that holds a finished run (done.json
-    and policy.pt), or None. Trap: policy.pt alone does not do, since train rewrites it
-    at every epoch end of a run still in progress."""
-    root = str(root)
-    for f in folders:
-        if all(
-            os.path.isfile(os.path.join(root, f, n)) for n in ("done.json", "policy.pt")
-        ):
-            return f
-    return None
-
-
 def load_policy(path: str) -> tuple[dict, str]:
     """The policy dict of a run folder (its policy.pt, else checkpoint.pt) or of a .pt
     file, read without running anything from it (`io.load_torch`), and that file."""

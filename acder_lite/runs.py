@@ -53,6 +53,16 @@ def find_run_dirs(root: str | Path) -> list[Path]:
     return sorted(found)
 
 
+def finished_run(root, *folders: str) -> str | None:
+    """The first of `folders` (relative to `root`) that holds a finished run (done.json
+    and policy.pt), or None. Trap: policy.pt alone does not do, since train rewrites it
+    at every epoch end of a run still in progress."""
+    for f in folders:
+        if all((Path(root) / f / n).is_file() for n in ("done.json", "policy.pt")):
+            return f
+    return None
+
+
 def number(s):
     """A progress.csv field as a float; '' stays ''
     (a column a method does not write)."""

@@ -512,6 +512,12 @@ class CellQueue:
         return "plan read again: " + "; ".join(parts) if parts else ""
 
 
+def cell_options(cell: Cell, args) -> dict:
+    """The Config fields a cell trains with beyond env, method and seed: its plan
+    group's, the sweep's own options (`passed_options`) and --threads."""
+    return {**cell.options, **passed_options(args), "threads": args.threads}
+
+
 def train_argv(cell: Cell, args, resume: bool) -> list[str]:
     """The `acder_lite train` arguments of one cell: its options,
     the sweep's, --train-args.
@@ -530,7 +536,7 @@ def train_argv(cell: Cell, args, resume: bool) -> list[str]:
         str(cell.seed),
     ]
     argv += ["--resume", str(cell.out)] if resume else ["--out", str(cell.out)]
-    options = {**cell.options, **passed_options(args), "threads": args.threads}
+    options = cell_options(cell, args)
     for name, value in options.items():
         if isinstance(value, bool):  # a Config flag (compile_update): given or not
             argv += ["--" + name.replace("_", "-")] if value else []
@@ -550,14 +556,7 @@ def copy_cell(cell: Cell, args) -> str:
         )
     try:
         config = Config(
-            **{
-                **cell.options,
-                **passed_options(args),
-                "threads": args.threads,
-                "env": cell.env,
-                "method": cell.method,
-                "seed": cell.seed,
-            }
+            **cell_options(cell, args), env=cell.env, method=cell.method, seed=cell.seed
         ).resolve()
     except ConfigError as e:
         return f"FAILED: {e}"

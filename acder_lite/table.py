@@ -273,9 +273,8 @@ def verdict(rs: list[RatioStat], cells: list[CellStat] | None = None) -> str:
     and what that says about its factor of five. With `cells` (the summaries the ratios
     come from), a task whose HER or ACDER cell still has planned seeds to come is named
     with its seed counts and the verdict is said to be provisional."""
-    partial = _still_training(rs, cells or [])
-    text = _verdict(rs)
-    if not partial or text.startswith("We cannot say yet"):
+    text, partial = _verdict(rs), _still_training(rs, cells or [])
+    if not partial:
         return text
     return (
         f"So far ({'; '.join(partial)}): {text[:1].lower()}{text[1:]} "
@@ -292,7 +291,7 @@ def _still_training(rs: list[RatioStat], cells: list[CellStat]) -> list[str]:
     out = []
     for r in rs:
         her, acder = by.get((r.env, "her")), by.get((r.env, "acder"))
-        if r.ours is None or her is None or acder is None:
+        if not _read(r) or her is None or acder is None:
             continue
         if not (complete(her) and complete(acder)):
             counts = [
@@ -303,10 +302,15 @@ def _still_training(rs: list[RatioStat], cells: list[CellStat]) -> list[str]:
     return out
 
 
+def _read(r: RatioStat) -> bool:
+    """Whether the verdict reads this task: our ratio, its interval and the paper's."""
+    return not (r.ours is None or r.paper is None or r.low is None or math.isnan(r.low))
+
+
 def _verdict(rs: list[RatioStat]) -> str:
     where = {"inside": [], "above": [], "below": []}
     for r in rs:
-        if r.ours is None or r.paper is None or r.low is None or math.isnan(r.low):
+        if not _read(r):
             continue
         key = (
             "inside"

@@ -355,15 +355,3 @@ def test_perturbed_policy_is_the_policy_under_the_setting(reach_policy):
     assert np.array_equal(a, b) and not np.array_equal(a, same(o, g))
     with pytest.raises(ConfigError, match="not the policy's task"):
         perturbed_policy(str(reach_policy), E.make_env("FetchPush-v4"), {}, 3)
-
-
-def test_finished_run_skips_a_run_still_training(tmp_path):
-    """policy.pt is rewritten at every epoch end: only a folder with done.json does."""
-    from acder_lite.robust import finished_run
-
-    for name, files in (("live", ["policy.pt"]), ("done", ["policy.pt", "done.json"])):
-        (tmp_path / name).mkdir()
-        for f in files:
-            (tmp_path / name / f).write_text("x")
-    assert finished_run(tmp_path, "missing", "live", "done") == "done"
-    assert finished_run(tmp_path, "live") is None

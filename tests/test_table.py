@@ -470,3 +470,15 @@ def test_an_unfinished_mean_curve_says_how_early_it_can_still_cross():
     )
     c.earliest = 3.0  # nothing beyond what the curve itself shows
     assert T.mean_text(c) == "not yet (evaluated to epoch 4)"
+
+
+def test_finished_run_skips_a_run_still_training(tmp_path):
+    """policy.pt is rewritten at every epoch end: only a folder with done.json does."""
+    from acder_lite.runs import finished_run
+
+    for name, files in (("live", ["policy.pt"]), ("done", ["policy.pt", "done.json"])):
+        (tmp_path / name).mkdir()
+        for f in files:
+            (tmp_path / name / f).write_text("x")
+    assert finished_run(tmp_path, "missing", "live", "done") == "done"
+    assert finished_run(tmp_path, "live") is None
