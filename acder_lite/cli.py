@@ -92,13 +92,23 @@ def _command_line(argv: list[str] | None = None) -> list[str]:
 
 
 def cmd_train(args) -> int:
+    from . import packed
     from .io import load_torch
     from .trainer import Trainer
 
     given = _given(args)
     if args.resume:
         ckpt_path = os.path.join(args.resume, "checkpoint.pt")
-        ckpt = load_torch(ckpt_path)
+        if not os.path.exists(ckpt_path) and packed.has_packed(args.resume):
+            # a run carried over from another machine: its buffer re-simulated
+            print(
+                f"resume: rebuilding {args.resume}'s replay buffer from "
+                f"{packed.FOLDER}/ (re-simulated, checked against its digest)",
+                file=sys.stderr,
+            )
+            ckpt = packed.unpack(args.resume)
+        else:
+            ckpt = load_torch(ckpt_path)
         # load_torch checked that a checkpoint has all its parts
         if "buffer" not in ckpt:
             raise CheckpointError(
@@ -279,10 +289,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     b.set_defaults(func=cmd_bench)
 
-    from . import diagnose, export, robust, sweep, table
+    from . import diagnose, export, packed, robust, sweep, table
 
     for name, mod in (
         ("sweep", sweep),
+        ("pack", packed),
         ("table", table),
         ("diagnose", diagnose),
         ("robust", robust),

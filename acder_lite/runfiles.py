@@ -1,5 +1,6 @@
 """A run folder's files:
-progress.csv, config.json, checkpoint.pt with policy.pt, done.json.
+progress.csv, config.json, checkpoint.pt with policy.pt, done.json (and, for a run
+carried over from another machine, checkpoint.packed/: `packed`).
 
 Every file is written atomically (`io`), so an interrupt leaves the previous version
 whole.
@@ -10,10 +11,12 @@ from __future__ import annotations
 import json
 import os
 import platform
+import shutil
 
 import numpy as np
 import torch
 
+from . import packed
 from .io import arrays_as_tensors, save_torch, write_csv, write_json
 
 
@@ -116,5 +119,7 @@ class RunFiles:
         save_torch(self.path("policy.pt"), dict(policy=policy_state))
 
     def write_done(self, info: dict) -> None:
-        """done.json: the run ended (how, when, with what test success)."""
+        """done.json: the run ended (how, when, with what test success). A packed
+        checkpoint (`packed`) it was carried over with has served: removed."""
         write_json(self.path("done.json"), info)
+        shutil.rmtree(self.path(packed.FOLDER), ignore_errors=True)

@@ -41,7 +41,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import same_as
+from . import packed, same_as
 from .config import ENV_IDS, METHODS, Config, ConfigError
 
 EXIT_INTERRUPTED = 130
@@ -95,12 +95,13 @@ def run_dir(results: str | Path, env: str, method: str, seed: int) -> Path:
 
 
 def cell_state(out: Path) -> str:
-    """What a run folder holds: 'done' (done.json), 'interrupted' (checkpoint.pt),
-    'orphan' (progress.csv, no checkpoint: committed results, or a run stopped before
-    its first epoch) or 'new'."""
+    """What a run folder holds: 'done' (done.json), 'interrupted' (checkpoint.pt, or
+    a packed checkpoint carried over from another machine: `packed`), 'orphan'
+    (progress.csv, no checkpoint: committed results, or a run stopped before its first
+    epoch) or 'new'."""
     if (out / "done.json").exists():
         return "done"
-    if (out / "checkpoint.pt").exists():
+    if (out / "checkpoint.pt").exists() or packed.has_packed(out):
         return "interrupted"
     if (out / "progress.csv").exists():
         return "orphan"
@@ -135,7 +136,14 @@ def plan_cell(cell: Cell) -> Cell:
             else ("skip", f"waits: {why}")
         )
     elif state == "interrupted":
-        cell.action, cell.note = "resume", "checkpoint.pt found"
+        cell.action, cell.note = (
+            "resume",
+            (
+                "checkpoint.pt found"
+                if (cell.out / "checkpoint.pt").exists()
+                else f"{packed.FOLDER} found (its buffer re-simulated)"
+            ),
+        )
     elif state == "orphan":
         cell.action, cell.note = (
             "skip",

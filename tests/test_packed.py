@@ -1,0 +1,140 @@
+"""Packed checkpoints (`acder_lite.packed`): a run carried to another machine as its
+first states and actions resumes to the numbers of an uninterrupted run; a packed
+buffer that does not re-simulate to its digest is refused; packing again adds only
+the new episodes."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from acder_lite import packed
+from acder_lite.cli import main
+from acder_lite.io import CheckpointError, load_torch
+from acder_lite.sweep import cell_state
+from acder_lite.trainer import Trainer
+
+from conftest import tiny_config
+
+
+def rows_of(path):
+    with open(path) as f:
+        return [
+            {k: v for k, v in r.items() if k != "wall_s"} for r in csv.DictReader(f)
+        ]
+
+
+def carried(part):
+    """`part`'s checkpoint packed, then checkpoint.pt removed: the run folder as a
+    fresh clone of the repository holds it."""
+    packed.pack(load_torch(str(part / "checkpoint.pt")), part / packed.FOLDER)
+    (part / "checkpoint.pt").unlink()
+
+
+@pytest.mark.parametrize(
+    "env, method, kw",
+    [
+        ("FetchPush-v4", "acder", {}),
+        ("FetchPush-v4", "her-per", {}),
+        ("FetchPickAndPlace-v4", "her", {}),
+        ("FetchPush-v4", "acder", {"obs": "simplified"}),
+        ("FetchPushMultiStep-v0", "acder", {}),
+    ],
+)
+def test_a_packed_run_resumes_to_the_uninterrupted_numbers(tmp_path, env, method, kw):
+    kw = dict(env=env, method=method, eval_every_cycles=2, epochs=4, **kw)
+    full = tmp_path / "full"
+    Trainer(tiny_config(**kw), str(full)).train(False)
+    part = tmp_path / "part"
+    Trainer(tiny_config(**kw), str(part)).train(False, max_cycles=2 * 3)
+    carried(part)
+    assert cell_state(part) == "interrupted"
+    assert main(["train", "--resume", str(part), "--quiet"]) == 0
+    assert rows_of(part / "progress.csv") == rows_of(full / "progress.csv")
+    # the run has ended: its packed folder has served
+    assert (part / "done.json").exists() and not (part / packed.FOLDER).exists()
+
+
+def test_packing_again_adds_only_the_new_episodes(tmp_path):
+    kw = dict(env="FetchPush-v4", method="acder", epochs=3)
+    part = tmp_path / "part"
+    Trainer(tiny_config(**kw), str(part)).train(False, max_cycles=3)
+    first = packed.pack(load_torch(str(part / "checkpoint.pt")), part / packed.FOLDER)
+    chunk0 = sorted((part / packed.FOLDER).glob("episodes-*.npz"))
+    assert first == dict(episodes=3 * 2, new=3 * 2, bytes=first["bytes"])
+    (part / "checkpoint.pt").unlink()
+    # resumed from the packed folder for one more epoch, then packed again
+    tr = Trainer(tiny_config(**kw), str(part))
+    tr.load_state_dict(packed.unpack(part))
+    tr.train(False, max_cycles=6)
+    ckpt = load_torch(str(part / "checkpoint.pt"))
+    before = chunk0[0].read_bytes()
+    again = packed.pack(ckpt, part / packed.FOLDER)
+    assert (again["episodes"], again["new"]) == (12, 6)
+    names = sorted(p.name for p in (part / packed.FOLDER).glob("episodes-*.npz"))
+    assert names == ["episodes-00000000-00000006.npz", "episodes-00000006-00000012.npz"]
+    assert chunk0[0].read_bytes() == before  # the committed chunk is untouched
+    back = packed.unpack(part)
+    for k in ("o", "ag", "g", "u", "state", "success"):
+        assert back["buffer"][k].tobytes() == ckpt["buffer"][k].tobytes(), k
+
+
+def test_a_wrapped_buffer_packs_whole_and_rebuilds(tmp_path):
+    """Past its capacity the buffer overwrites its oldest slots, so chunks of earlier
+    packs no longer hold its episodes: a new pack replaces them."""
+    run = tmp_path / "run"
+    cfg = tiny_config(env="FetchReach-v4", epochs=4, buffer_size=1000)  # 20 episodes
+    Trainer(cfg, str(run)).train(False)
+    ck = load_torch(str(run / "checkpoint.pt"))
+    assert ck["buffer"]["total"] == 24 and ck["buffer"]["n"] == 20
+    stale = run / packed.FOLDER / "episodes-00000000-00000002.npz"
+    stale.parent.mkdir()
+    np.savez_compressed(stale, **packed.episodes_of(ck["buffer"], 0, 2))
+    packed.pack(ck, run / packed.FOLDER)
+    assert [p.name for p in (run / packed.FOLDER).glob("*.npz")] == [
+        "episodes-00000000-00000020.npz"
+    ]
+    back = packed.unpack(run)["buffer"]
+    assert (back["next"], back["total"]) == (
+        ck["buffer"]["next"],
+        ck["buffer"]["total"],
+    )
+    assert back["o"].tobytes() == ck["buffer"]["o"].tobytes()
+
+
+def test_a_buffer_that_does_not_replay_is_refused(tmp_path, capsys):
+    run = tmp_path / "run"
+    Trainer(tiny_config(env="FetchPush-v4", epochs=2), str(run)).train(
+        False, max_cycles=3
+    )
+    carried(run)
+    chunk = next((run / packed.FOLDER).glob("episodes-*.npz"))
+    part = dict(np.load(chunk))
+    part["u"][1, 7, 0] = np.nextafter(part["u"][1, 7, 0], np.float32(2))  # one ulp
+    np.savez_compressed(chunk, **part)
+    with pytest.raises(CheckpointError, match="differs from the one that was packed"):
+        packed.unpack(run)
+    capsys.readouterr()
+    assert main(["train", "--resume", str(run), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "differs" in err[-1] and "Traceback" not in err[-1]
+    chunk.unlink()
+    with pytest.raises(CheckpointError, match="is missing"):
+        packed.unpack(run)
+
+
+def test_pack_command_packs_runs_in_flight_and_drops_finished_ones(tmp_path, capsys):
+    root = tmp_path / "results"
+    going, ended = root / "a" / "seed0", root / "b" / "seed0"
+    Trainer(tiny_config(epochs=2), str(going)).train(False, max_cycles=3)
+    Trainer(tiny_config(epochs=1), str(ended)).train(False)
+    (ended / packed.FOLDER).mkdir()  # left over from the session it was carried in
+    assert main(["pack", str(root)]) == 0
+    out = capsys.readouterr().out
+    assert "packed   " in out and "at epoch 1: 6 episodes (6 new)" in out
+    assert f"removed  {ended}/{packed.FOLDER}" in out
+    assert packed.has_packed(going) and not (ended / packed.FOLDER).exists()
+    assert main(["pack", str(tmp_path / "nowhere")]) == 2
+    assert "is not a folder" in capsys.readouterr().err
