@@ -7,7 +7,8 @@ every session.
 
 Each cell is one Ray task reserving `--threads` CPUs, so Ray packs as many runs as fit.
 The task decides when it starts what its folder needs: nothing (`done.json`),
-`train --resume` (a `checkpoint.pt`) or a fresh `train --out`; so Ray's own retry after
+`train --resume` (a `checkpoint.pt`, or a `checkpoint.packed/` from another machine:
+`acder_lite.packed`) or a fresh `train --out`; so Ray's own retry after
 a lost worker (killed process, lost node) resumes the run from its last checkpoint, and
 the trainer's determinism makes the result equal to an uninterrupted run's. A plan's
 `same_as` cell is not trained at all: the sweep copies the finished run it names, once
