@@ -11,7 +11,7 @@ assumed: packing records a SHA-256 digest of the whole buffer, and unpacking ref
 rebuild whose digest differs (another MuJoCo build, another CPU) with one line.
 
 Measured on a FetchPush ACDER run of the grid at epoch 2 (800 episodes): 0.94 KB an
-episode instead of 42 KB, and 4.4 MB for the rest of the state, so about 17 MB at epoch
+episode instead of 37 KB, and 4.4 MB for the rest of the state, so about 17 MB at epoch
 33; rebuilding took 30-65 ms an episode on one busy core. The episodes go to chunk files that never change once written
 (`episodes-<first>-<end>.npz`; the buffer only appends until it wraps, which the grid's
 budgets never reach), so packing the same run again in a later session adds one chunk
