@@ -99,7 +99,11 @@ def cmd_train(args) -> int:
     given = _given(args)
     if args.resume:
         ckpt_path = os.path.join(args.resume, "checkpoint.pt")
-        if not os.path.exists(ckpt_path) and packed.has_packed(args.resume):
+        ckpt = load_torch(ckpt_path) if os.path.exists(ckpt_path) else None
+        if packed.has_packed(args.resume) and (
+            ckpt is None
+            or packed.cycle_of(packed.read_state(args.resume)) > packed.cycle_of(ckpt)
+        ):
             # a run carried over from another machine: its buffer re-simulated
             print(
                 f"resume: rebuilding {args.resume}'s replay buffer from "
@@ -107,8 +111,8 @@ def cmd_train(args) -> int:
                 file=sys.stderr,
             )
             ckpt = packed.unpack(args.resume)
-        else:
-            ckpt = load_torch(ckpt_path)
+        elif ckpt is None:
+            ckpt = load_torch(ckpt_path)  # the one-line error of a missing file
         # load_torch checked that a checkpoint has all its parts
         if "buffer" not in ckpt:
             raise CheckpointError(

@@ -12,17 +12,20 @@ rebuild whose digest differs (another MuJoCo build, another CPU) with one line.
 
 Measured on a FetchPush ACDER run of the grid at epoch 2 (800 episodes): 0.94 KB an
 episode instead of 37 KB, and 4.4 MB for the rest of the state, so about 17 MB at epoch
-33; rebuilding took 30-65 ms an episode on one busy core. The episodes go to chunk files that never change once written
-(`episodes-<first>-<end>.npz`; the buffer only appends until it wraps, which the grid's
-budgets never reach), so packing the same run again in a later session adds one chunk
-for the new episodes and rewrites only `state.pt.gz` (the networks, optimisers,
-normalisers, random states: everything of checkpoint.pt but the buffer's arrays). A
-repository that commits the packed folder of a run in flight thus grows by that run's
-new episodes, not by its whole buffer, each session.
+33; rebuilding took 30-65 ms an episode on one busy core. The episodes go to chunk
+files that never change once written (`episodes-<first>-<end>.npz`; the buffer only
+appends until it wraps, which the grid's budgets never reach), so packing the same run
+again in a later session adds one chunk for the new episodes and rewrites only
+`state.pt.gz` (the networks, optimisers, normalisers, random states: everything of
+checkpoint.pt but the buffer's arrays). A repository that commits the packed folder of
+a run in flight thus grows by that run's new episodes, not by its whole buffer, each
+session.
 
 `python -m acder_lite pack DIR` packs every run under DIR that has a checkpoint.pt and
 has not finished, and removes the packed folder of runs that have; `train --resume`
-(and so `sweep`) unpacks a run folder that holds only a packed checkpoint.
+(and so `sweep`) unpacks a run folder whose packed checkpoint is the only one, or later
+than its checkpoint.pt (never the other way round: an older checkpoint.pt neither
+resumes nor is packed over a later pack).
 """
 
 from __future__ import annotations
@@ -217,14 +220,15 @@ def has_packed(run_dir: str | Path) -> bool:
     return (Path(run_dir) / FOLDER / STATE).is_file()
 
 
-def unpack(run_dir: str | Path, env=None) -> dict:
-    """The full checkpoint (as `load_torch` gives checkpoint.pt) from the packed folder
-    of `run_dir`: the buffer re-simulated and checked (`rebuild`). `env`: a Fetch env
-    of the run's task and observation set (None: made here)."""
-    folder = Path(run_dir) / FOLDER
-    state_path = folder / STATE
+def read_state(run_dir: str | Path) -> dict:
+    """The packed folder's state.pt.gz: the checkpoint without the buffer's arrays,
+    its `buffer` the list of chunks, counts and digest. CheckpointError (one line) for
+    a missing, truncated or foreign file."""
+    state_path = Path(run_dir) / FOLDER / STATE
     if not state_path.is_file():
-        raise CheckpointError(f"{str(folder)!r} holds no packed checkpoint ({STATE})")
+        raise CheckpointError(
+            f"{str(state_path.parent)!r} holds no packed checkpoint ({STATE})"
+        )
     fd, tmp = tempfile.mkstemp(suffix=".pt")
     try:
         with os.fdopen(fd, "wb") as out, gzip.open(state_path, "rb") as z:
@@ -242,16 +246,37 @@ def unpack(run_dir: str | Path, env=None) -> dict:
             f"packed checkpoint {str(state_path)!r} has format "
             f"{ckpt.get('packed_format')!r}; allowed: {FORMAT}"
         )
+    return ckpt
+
+
+def cycle_of(ckpt: dict) -> int:
+    """The training cycle a checkpoint (full or packed) was written at."""
+    return int(ckpt["progress"]["cycle"])
+
+
+def unpack(run_dir: str | Path, env=None) -> dict:
+    """The full checkpoint (as `load_torch` gives checkpoint.pt) from the packed folder
+    of `run_dir`: the buffer re-simulated and checked (`rebuild`). `env`: a Fetch env
+    of the run's task and observation set (None: made here)."""
+    folder = Path(run_dir) / FOLDER
+    ckpt = read_state(run_dir)
     meta = ckpt.pop("buffer")
     ckpt.pop("packed_format")
     chunks = []
     for name in meta["chunks"]:
-        p = folder / name
-        if not p.is_file():
+        try:
+            chunks.append(_read_chunk(folder / name))
+        except FileNotFoundError:
             raise CheckpointError(
                 f"packed checkpoint {str(folder)!r}: chunk {name} is missing"
-            )
-        chunks.append(_read_chunk(p))
+            ) from None
+        except Exception as e:  # a truncated or foreign .npz
+            raise CheckpointError(
+                f"packed checkpoint {str(folder)!r}: chunk {name} cannot be read "
+                f"({type(e).__name__}); allowed: a folder `pack` wrote"
+            ) from None
+    if not chunks:
+        raise CheckpointError(f"packed checkpoint {str(folder)!r} names no chunk")
     if env is None:
         cfg = ckpt["config"]
         env = E.make_env(cfg["env"], seed=0, obs=cfg.get("obs", "full"))
@@ -284,10 +309,13 @@ def pack_run(run_dir: Path) -> str:
             return f"removed  {run_dir}/{FOLDER} (the run has ended)"
         return f"skipped  {run_dir} (the run has ended)"
     if not (run_dir / "checkpoint.pt").exists():
-        return f"kept     {run_dir}/{FOLDER} (no newer checkpoint.pt)"
+        return f"kept     {run_dir}/{FOLDER} (no checkpoint.pt)"
     ckpt = load_torch(str(run_dir / "checkpoint.pt"))
     if "buffer" not in ckpt:
         raise CheckpointError(f"{str(run_dir)!r}: checkpoint.pt holds a policy only")
+    if has_packed(run_dir) and cycle_of(read_state(run_dir)) > cycle_of(ckpt):
+        # e.g. a checkpoint.pt left on this machine, a later pack come from another
+        return f"kept     {run_dir}/{FOLDER} (later than checkpoint.pt)"
     w = pack(ckpt, folder)
     epoch = ckpt["progress"]["cycle"] / ckpt["config"]["cycles"]
     return (

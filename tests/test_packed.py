@@ -138,3 +138,35 @@ def test_pack_command_packs_runs_in_flight_and_drops_finished_ones(tmp_path, cap
     assert packed.has_packed(going) and not (ended / packed.FOLDER).exists()
     assert main(["pack", str(tmp_path / "nowhere")]) == 2
     assert "is not a folder" in capsys.readouterr().err
+
+
+def test_the_later_of_checkpoint_and_pack_wins(tmp_path, capsys):
+    """A checkpoint.pt older than the packed folder beside it (left on a machine that
+    another one has since overtaken) is neither packed over the later pack nor
+    resumed from."""
+    kw = dict(env="FetchPush-v4", method="her", epochs=3)
+    full = tmp_path / "full"
+    Trainer(tiny_config(**kw), str(full)).train(False)
+    part = tmp_path / "part"
+    Trainer(tiny_config(**kw), str(part)).train(False, max_cycles=3)
+    early = (part / "checkpoint.pt").read_bytes()
+    Trainer(tiny_config(**kw), str(part)).train(False, max_cycles=6)  # from scratch
+    assert main(["pack", str(part)]) == 0
+    (part / "checkpoint.pt").write_bytes(early)  # cycle 3, the pack is at cycle 6
+    assert main(["pack", str(part)]) == 0
+    assert "kept" in capsys.readouterr().out.splitlines()[-1]
+    assert packed.cycle_of(packed.read_state(part)) == 6
+    assert main(["train", "--resume", str(part), "--quiet"]) == 0
+    assert "rebuilding" in capsys.readouterr().err
+    assert rows_of(part / "progress.csv") == rows_of(full / "progress.csv")
+
+
+def test_a_damaged_chunk_is_one_line(tmp_path, capsys):
+    run = tmp_path / "run"
+    Trainer(tiny_config(epochs=2), str(run)).train(False, max_cycles=3)
+    carried(run)
+    chunk = next((run / packed.FOLDER).glob("episodes-*.npz"))
+    chunk.write_bytes(chunk.read_bytes()[:100])
+    assert main(["train", "--resume", str(run), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "cannot be read" in err[-1] and "Traceback" not in "".join(err)
