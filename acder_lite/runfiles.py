@@ -33,7 +33,24 @@ def versions() -> dict:
         gymnasium_robotics=_version("gymnasium-robotics"),
         acder_lite=_version("acder-lite"),
         git=_git_commit(),
+        cpu=cpu(),
     )
+
+
+def cpu() -> str:
+    """The CPU's model and the instruction set torch's kernels dispatch to (AVX2,
+    AVX512, ...): float32 results are the same only where both are (a run resumed on
+    another machine records it under config.json's `resumes`)."""
+    model = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    model = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return f"{model}; torch kernels: {torch.backends.cpu.get_cpu_capability()}"
 
 
 def _git_commit() -> str:

@@ -6,6 +6,7 @@ the new episodes."""
 from __future__ import annotations
 
 import csv
+import json
 
 import numpy as np
 import pytest
@@ -55,6 +56,9 @@ def test_a_packed_run_resumes_to_the_uninterrupted_numbers(tmp_path, env, method
     assert rows_of(part / "progress.csv") == rows_of(full / "progress.csv")
     # the run has ended: its packed folder has served
     assert (part / "done.json").exists() and not (part / packed.FOLDER).exists()
+    # the machine it resumed on is on record (float32 kernels differ between CPUs)
+    resumed = json.loads((part / "config.json").read_text())["resumes"][-1]
+    assert "torch kernels: " in resumed["versions"]["cpu"]
 
 
 def test_packing_again_adds_only_the_new_episodes(tmp_path):
