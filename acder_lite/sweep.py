@@ -42,7 +42,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import packed, same_as
+from . import grid_time, packed, same_as
 from .config import ENV_IDS, METHODS, Config, ConfigError
 
 EXIT_INTERRUPTED = 130
@@ -783,6 +783,7 @@ def run(args) -> int:
             f"{counts['copy']} to copy, {counts['skip']} to skip; "
             f"jobs={args.jobs} threads={args.threads}"
         )
+        _say(grid_time.sentence(grid_time.estimate(cells), args.jobs))
         return 0
     if args.address:
         problem = _check_address(args.address)

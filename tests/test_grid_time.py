@@ -1,0 +1,66 @@
+"""The time a sweep has left (`acder_lite.grid_time`), on run folders with known
+seconds an epoch and known stopping epochs."""
+
+import csv
+import json
+
+import pytest
+
+from acder_lite import grid_time as G, sweep as S
+from acder_lite.cli import main
+from acder_lite.config import Config
+
+P, PP = "FetchPush-v4", "FetchPickAndPlace-v4"
+
+
+def write_run(root, env, method, seed, epochs, wall, done=True, checkpoint=False):
+    d = S.run_dir(root, env, method, seed)
+    d.mkdir(parents=True)
+    cfg = Config(env=env, method=method, seed=seed).resolve().to_dict()
+    (d / "config.json").write_text(json.dumps(dict(config=cfg, command="")))
+    with open(d / "progress.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(
+            ["epoch", "cycle", "episodes", "env_steps", "test_success", "wall_s"]
+        )
+        for e in range(1, epochs + 1):
+            w.writerow([e, e * 50, e * 400, e * 20000, 0.5, wall * e / epochs])
+    if done:
+        (d / "done.json").write_text(json.dumps(dict(epochs=epochs)))
+    if checkpoint:
+        (d / "checkpoint.pt").write_bytes(b"")  # only its presence is read here
+
+
+@pytest.fixture
+def grid(tmp_path):
+    root = tmp_path / "results"
+    write_run(root, P, "her", 0, 10, 1000)  # 100 s an epoch, ended at 10
+    write_run(root, P, "her", 1, 20, 3000)  # 150 s an epoch, ended at 20
+    write_run(root, P, "acder", 0, 30, 6000)  # 200 s an epoch, ended at 30
+    write_run(root, P, "acder", 1, 10, 2000, done=False, checkpoint=True)
+    return root
+
+
+def test_the_estimate_adds_each_cells_epochs_left_at_its_timing(grid):
+    cells = S.plan([P, PP], ["her", "acder", "her-icm"], [0, 1, 2], grid)
+    est = G.estimate(cells)
+    # her seed 2: 50 epochs at 125 s (budget), 15 (as finished); acder seed 1 from
+    # epoch 10 and seed 2: at 200 s, to 50 or to 30; her-icm (no finished run of its
+    # own): the task's 150 s, to its budget either way
+    budget = 50 * 125 + 40 * 200 + 50 * 200 + 3 * 50 * 150
+    finished = 15 * 125 + 20 * 200 + 30 * 200 + 3 * 50 * 150
+    assert est["cells"] == 6
+    assert est["budget_h"] == pytest.approx(budget / 3600)
+    assert est["finished_h"] == pytest.approx(finished / 3600)
+    assert est["untimed"] == {PP: 9}
+    line = G.sentence(est, 2)
+    assert "6 cells" in line and f"{finished / 3600:.1f} core-hours" in line
+    assert f"{PP} (9 cells)" in line
+
+
+def test_dry_run_ends_with_the_estimate(grid, capsys):
+    argv = ["sweep", "--envs", P, "--methods", "her", "--seeds", "0", "1", "2"]
+    assert main([*argv, "--results", str(grid), "--dry-run", "--jobs", "2"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.startswith("sweep: time left: 1 cell, 0.5 core-hours")  # 15 x 125 s
+    assert "2 at a time, 0.3-0.9 hours" in last and "not timed" not in last
