@@ -100,17 +100,17 @@ def cmd_train(args) -> int:
     if args.resume:
         ckpt_path = os.path.join(args.resume, "checkpoint.pt")
         ckpt = load_torch(ckpt_path) if os.path.exists(ckpt_path) else None
-        if packed.has_packed(args.resume) and (
-            ckpt is None
-            or packed.cycle_of(packed.read_state(args.resume)) > packed.cycle_of(ckpt)
-        ):
-            # a run carried over from another machine: its buffer re-simulated
+        later, note = packed.later_than(args.resume, ckpt)
+        if note:
+            print(f"resume: {note}; resuming from checkpoint.pt", file=sys.stderr)
+        if later:  # a run carried over from another machine: its buffer re-simulated
             print(
                 f"resume: rebuilding {args.resume}'s replay buffer from "
                 f"{packed.FOLDER}/ (re-simulated, checked against its digest)",
                 file=sys.stderr,
             )
             ckpt = packed.unpack(args.resume)
+            ckpt_path = os.path.join(args.resume, packed.FOLDER)
         elif ckpt is None:
             ckpt = load_torch(ckpt_path)  # the one-line error of a missing file
         # load_torch checked that a checkpoint has all its parts
@@ -142,7 +142,7 @@ def cmd_train(args) -> int:
             raise CheckpointError(
                 f"checkpoint {ckpt_path!r} does not fit the run it names "
                 f"({type(e).__name__}: {first}); "
-                "allowed: a checkpoint.pt written by train"
+                "allowed: a checkpoint.pt written by train (or its packed folder)"
             ) from None
         trainer.done = trainer.done and trainer.cycle >= cfg.epochs * cfg.cycles
     else:

@@ -13,7 +13,8 @@ its task's runs where the method has none). Two totals:
 
 A task with no finished run has no timing: its cells are counted apart, not guessed.
 Wall-clock seconds are the machine's as it was while those runs trained; another
-machine, or one cell alone on it, gives other times.
+machine, or one cell alone on it, gives other times. The totals are cell-hours: hours of
+one cell on one thread, as the finished runs ran (core-hours at `--threads 1`).
 """
 
 from __future__ import annotations
@@ -35,15 +36,24 @@ def finished_timings(folders) -> tuple[dict, dict]:
             run = read_run(d)
         except RunError:
             continue
-        last = run["rows"][-1] if run["rows"] else None
-        if not run["done"] or not last or not last.get("epoch"):
+        last = run["rows"][-1] if run["rows"] else {}
+        epoch, wall = last.get("epoch"), last.get("wall_s")
+        # a copy (`same_as`) would count its source twice
+        if not run["done"] or run["same_as"] or not _positive(epoch, wall):
             continue
-        secs = float(last["wall_s"]) / float(last["epoch"])
+        secs = float(wall) / float(epoch)
         per_epoch[run["env"], run["method"]].append(secs)
         per_epoch[run["env"]].append(secs)
-        ended[run["env"], run["method"]].append(float(last["epoch"]))
+        ended[run["env"], run["method"]].append(float(epoch))
     med = lambda d: {k: statistics.median(v) for k, v in d.items()}
     return med(per_epoch), med(ended)
+
+
+def _positive(*values) -> bool:
+    try:
+        return all(float(v) > 0 for v in values)
+    except (TypeError, ValueError):
+        return False
 
 
 def epochs_done(folder) -> float:
@@ -52,17 +62,21 @@ def epochs_done(folder) -> float:
         rows = read_progress(folder / "progress.csv")
     except (OSError, RunError):
         return 0.0
-    return float(rows[-1]["epoch"]) if rows else 0.0
+    epoch = rows[-1].get("epoch") if rows else None
+    return float(epoch) if _positive(epoch) else 0.0
 
 
-def estimate(cells) -> dict:
+def estimate(cells, options: dict | None = None) -> dict:
     """The estimate for a sweep's cells (`sweep.Cell`s with their actions set): hours
-    to budget and as finished, the cells counted, and the cells of untimed tasks."""
+    to budget and as finished, the cells counted, the cells of untimed tasks and those
+    on hold. `options`: the sweep's own Config fields (`--epochs`, ...), over each
+    cell's."""
     done = [
         c.out for c in cells if c.action == "skip" and (c.out / "done.json").exists()
     ]
     per_epoch, ended = finished_timings(done)
     out = dict(cells=0, budget_h=0.0, finished_h=0.0, untimed=defaultdict(int))
+    out["held"] = sum(c.action == "skip" and bool(c.hold) for c in cells)
     for c in cells:
         if c.action not in ("run", "resume"):
             continue
@@ -70,7 +84,7 @@ def estimate(cells) -> dict:
             out["untimed"][c.env] += 1
             continue
         budget = (
-            Config(**dict(c.options, env=c.env, method=c.method, seed=c.seed))
+            Config(**{**c.options, **(options or {}), "env": c.env, "method": c.method})
             .resolve()
             .epochs
         )
@@ -88,7 +102,7 @@ def sentence(est: dict, jobs: int) -> str:
     """The estimate as the line `sweep --dry-run` ends with."""
     cells = lambda n: f"{n} cell" + ("" if n == 1 else "s")
     text = (
-        f"time left: {cells(est['cells'])}, {est['finished_h']:.1f} core-hours as the "
+        f"time left: {cells(est['cells'])}, {est['finished_h']:.1f} cell-hours as the "
         f"finished runs of their task and method ended ({est['budget_h']:.1f} if each "
         f"runs its budget); {jobs} at a time, {est['finished_h'] / jobs:.1f}-"
         f"{est['budget_h'] / jobs:.1f} hours"
@@ -97,4 +111,6 @@ def sentence(est: dict, jobs: int) -> str:
         text += "; not timed (no finished run of the task): " + ", ".join(
             f"{env} ({cells(n)})" for env, n in sorted(est["untimed"].items())
         )
+    if est["held"]:
+        text += f"; on hold, not counted: {cells(est['held'])}"
     return text

@@ -34,7 +34,9 @@ import gzip
 import hashlib
 import os
 import shutil
+import sys
 import tempfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -103,7 +105,22 @@ def rebuild(env, meta: dict, chunks: list[dict]) -> dict:
     env of the run's task and observation set), then checked against the digest taken
     when it was packed."""
     n, T = int(meta["n"]), int(meta["T"])
-    parts = {k: np.concatenate([c[k] for c in chunks]) for k in chunks[0]}
+    obs = env._get_obs()
+    want = dict(
+        state0=(E.state_size(env),),
+        u=(T, env.action_space.shape[0]),
+        g=(obs["desired_goal"].size,),
+        success=(),
+    )
+    for i, c in enumerate(chunks):
+        for k, shape in want.items():
+            if c[k].shape[1:] != shape:  # e.g. packed before envs.STATE_SPEC changed
+                raise CheckpointError(
+                    f"packed checkpoint: chunk {i} holds {k} of shape "
+                    f"{c[k].shape[1:]} an episode, this version and task need {shape}; "
+                    "allowed: a folder `pack` wrote for this task with this version"
+                )
+    parts = {k: np.concatenate([c[k] for c in chunks]) for k in want}
     if parts["u"].shape[0] != n:
         raise CheckpointError(
             f"packed checkpoint: its chunks hold {parts['u'].shape[0]} episodes, "
@@ -138,8 +155,11 @@ def rebuild(env, meta: dict, chunks: list[dict]) -> dict:
 # ----- the folder
 
 
-def _chunk_name(lo: int, hi: int) -> str:
-    return f"episodes-{lo:08d}-{hi:08d}.npz"
+def _chunk_name(lo: int, hi: int, total: int | None = None) -> str:
+    """`episodes-<first>-<end>.npz`; a wrapped buffer's (`total` episodes ever stored)
+    adds `-w<total>`, so it never overwrites the chunk the current state.pt.gz names."""
+    wrap = "" if total is None else f"-w{total:08d}"
+    return f"episodes-{lo:08d}-{hi:08d}{wrap}.npz"
 
 
 def _read_chunk(path: Path) -> dict:
@@ -160,14 +180,12 @@ def pack(ckpt: dict, folder: str | Path) -> dict:
     folder.mkdir(parents=True, exist_ok=True)
     buf = ckpt["buffer"]
     n = int(buf["n"])
-    if int(buf["total"]) != n:  # wrapped: slots no longer in episode order
-        keep = []
-    else:
-        keep = _reusable_chunks(folder, buf)
+    wrapped = int(buf["total"]) != n  # slots no longer in episode order
+    keep = [] if wrapped else _reusable_chunks(folder, buf)
     lo = keep[-1][1] if keep else 0
     names = [_chunk_name(a, b) for a, b in keep]
     if lo < n:
-        name = _chunk_name(lo, n)
+        name = _chunk_name(lo, n, int(buf["total"]) if wrapped else None)
         part = episodes_of(buf, lo, n)
         atomic_write(str(folder / name), lambda f: np.savez_compressed(f, **part))
         names.append(name)
@@ -207,9 +225,13 @@ def _reusable_chunks(folder: Path, buf: dict) -> list[tuple[int, int]]:
         spans.append((lo, hi, p))
     keep, at = [], 0
     for lo, hi, p in spans:
-        if lo != at or hi > int(buf["n"]):
+        if lo != at or hi > int(buf["n"]) or p.name != _chunk_name(lo, hi):
             break
-        if not _same(_read_chunk(p), episodes_of(buf, lo, hi)):
+        try:
+            same = _same(_read_chunk(p), episodes_of(buf, lo, hi))
+        except Exception:  # damaged: replaced by the new chunk
+            same = False
+        if not same:
             break
         keep.append((lo, hi))
         at = hi
@@ -234,10 +256,14 @@ def read_state(run_dir: str | Path) -> dict:
         with os.fdopen(fd, "wb") as out, gzip.open(state_path, "rb") as z:
             shutil.copyfileobj(z, out)
         ckpt = load_torch(tmp)
-    except (OSError, EOFError) as e:
+    except (OSError, EOFError, zlib.error) as e:
         raise CheckpointError(
             f"packed checkpoint {str(state_path)!r} is truncated or not gzip "
             f"({type(e).__name__}); allowed: a folder `pack` wrote"
+        ) from None
+    except CheckpointError as e:  # it names the temporary file: name ours
+        raise CheckpointError(
+            str(e).replace(repr(tmp), repr(str(state_path)))
         ) from None
     finally:
         os.unlink(tmp)
@@ -252,6 +278,21 @@ def read_state(run_dir: str | Path) -> dict:
 def cycle_of(ckpt: dict) -> int:
     """The training cycle a checkpoint (full or packed) was written at."""
     return int(ckpt["progress"]["cycle"])
+
+
+def later_than(run_dir: str | Path, ckpt: dict | None) -> tuple[bool, str]:
+    """(whether `run_dir`'s packed checkpoint should be used rather than `ckpt`, its
+    checkpoint.pt as loaded or None, and a note when a packed folder is passed over).
+    The later of the two wins; a packed folder that cannot be read loses to a
+    checkpoint.pt (and raises CheckpointError where there is none)."""
+    if not has_packed(run_dir):
+        return False, ""
+    if ckpt is None:
+        return True, ""
+    try:
+        return cycle_of(read_state(run_dir)) > cycle_of(ckpt), ""
+    except CheckpointError as e:
+        return False, f"{FOLDER}/ passed over: {e}"
 
 
 def unpack(run_dir: str | Path, env=None) -> dict:
@@ -313,14 +354,14 @@ def pack_run(run_dir: Path) -> str:
     ckpt = load_torch(str(run_dir / "checkpoint.pt"))
     if "buffer" not in ckpt:
         raise CheckpointError(f"{str(run_dir)!r}: checkpoint.pt holds a policy only")
-    if has_packed(run_dir) and cycle_of(read_state(run_dir)) > cycle_of(ckpt):
-        # e.g. a checkpoint.pt left on this machine, a later pack come from another
+    later, note = later_than(run_dir, ckpt)
+    if later:  # e.g. a checkpoint.pt left on this machine, a later pack from another
         return f"kept     {run_dir}/{FOLDER} (later than checkpoint.pt)"
     w = pack(ckpt, folder)
     epoch = ckpt["progress"]["cycle"] / ckpt["config"]["cycles"]
     return (
         f"packed   {run_dir} at epoch {epoch:g}: {w['episodes']} episodes "
-        f"({w['new']} new), {w['bytes'] / 1e6:.1f} MB"
+        f"({w['new']} new), {w['bytes'] / 1e6:.1f} MB" + (f"; {note}" if note else "")
     )
 
 
@@ -335,10 +376,16 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     """Pack every unfinished run under the paths (and drop finished runs' packed
-    folders); exit 2 with one line if a path or a checkpoint is not one."""
+    folders); exit 2 if a path is not a folder or a run could not be packed (one line
+    each; the other runs are packed all the same)."""
     folders = run_folders(args.paths)
     if not folders:
         print("pack: no run folder with a checkpoint under " + " ".join(args.paths))
-    for d in folders:
-        print(pack_run(d), flush=True)
-    return 0
+    failed = 0
+    for d in folders:  # one bad folder does not keep the others from being packed
+        try:
+            print(pack_run(d), flush=True)
+        except CheckpointError as e:
+            failed += 1
+            print(f"failed   {d}: {e}", file=sys.stderr, flush=True)
+    return 2 if failed else 0

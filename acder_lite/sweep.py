@@ -783,7 +783,8 @@ def run(args) -> int:
             f"{counts['copy']} to copy, {counts['skip']} to skip; "
             f"jobs={args.jobs} threads={args.threads}"
         )
-        _say(grid_time.sentence(grid_time.estimate(cells), args.jobs))
+        est = grid_time.estimate(cells, passed_options(args))
+        _say(grid_time.sentence(est, args.jobs))
         return 0
     if args.address:
         problem = _check_address(args.address)

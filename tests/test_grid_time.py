@@ -54,7 +54,7 @@ def test_the_estimate_adds_each_cells_epochs_left_at_its_timing(grid):
     assert est["finished_h"] == pytest.approx(finished / 3600)
     assert est["untimed"] == {PP: 9}
     line = G.sentence(est, 2)
-    assert "6 cells" in line and f"{finished / 3600:.1f} core-hours" in line
+    assert "6 cells" in line and f"{finished / 3600:.1f} cell-hours" in line
     assert f"{PP} (9 cells)" in line
 
 
@@ -62,5 +62,24 @@ def test_dry_run_ends_with_the_estimate(grid, capsys):
     argv = ["sweep", "--envs", P, "--methods", "her", "--seeds", "0", "1", "2"]
     assert main([*argv, "--results", str(grid), "--dry-run", "--jobs", "2"]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
-    assert last.startswith("sweep: time left: 1 cell, 0.5 core-hours")  # 15 x 125 s
+    assert last.startswith("sweep: time left: 1 cell, 0.5 cell-hours")  # 15 x 125 s
     assert "2 at a time, 0.3-0.9 hours" in last and "not timed" not in last
+
+
+def test_the_sweeps_budget_copies_holds_and_unreadable_rows(grid, capsys):
+    """--epochs over the cells' budget; a copied run (`same_as`) is not timed twice; a
+    held cell is named, not counted; a finished run without wall_s is passed over."""
+    copy = S.run_dir(grid, P, "her", 3)
+    copy.parent.mkdir(parents=True, exist_ok=True)
+    write_run(grid, P, "her", 3, 40, 40 * 1000)  # 1000 s an epoch, if it were read
+    whole = json.loads((copy / "config.json").read_text())
+    whole["same_as"] = dict(run="../seed0")
+    (copy / "config.json").write_text(json.dumps(whole))
+    write_run(grid, P, "her", 4, 40, 0)  # wall_s 0: no timing
+    cells = S.plan([P], ["her"], [0, 1, 2, 3, 4, 5], grid)
+    cells[-1].action, cells[-1].hold = "skip", "waits"
+    est = G.estimate(cells, {"epochs": 12})
+    # her seed 2 alone: 12 epochs at 125 s, or 12 (its runs ended at 15 > 12)
+    assert est["cells"] == 1 and est["held"] == 1
+    assert est["budget_h"] == pytest.approx(12 * 125 / 3600) == est["finished_h"]
+    assert G.sentence(est, 1).endswith("on hold, not counted: 1 cell")

@@ -97,8 +97,9 @@ def test_a_wrapped_buffer_packs_whole_and_rebuilds(tmp_path):
     stale.parent.mkdir()
     np.savez_compressed(stale, **packed.episodes_of(ck["buffer"], 0, 2))
     packed.pack(ck, run / packed.FOLDER)
+    # named by the episodes ever stored: never the name of a chunk a pack still lists
     assert [p.name for p in (run / packed.FOLDER).glob("*.npz")] == [
-        "episodes-00000000-00000020.npz"
+        "episodes-00000000-00000020-w00000024.npz"
     ]
     back = packed.unpack(run)["buffer"]
     assert (back["next"], back["total"]) == (
@@ -174,3 +175,42 @@ def test_a_damaged_chunk_is_one_line(tmp_path, capsys):
     assert main(["train", "--resume", str(run), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert "cannot be read" in err[-1] and "Traceback" not in "".join(err)
+
+
+def test_damaged_or_foreign_packs_are_one_line(tmp_path, capsys):
+    """A state.pt.gz that is not gzip, or chunks of another state layout: one line,
+    no traceback; beside a readable checkpoint.pt the damaged pack is passed over."""
+    run = tmp_path / "run"
+    Trainer(tiny_config(epochs=2), str(run)).train(False, max_cycles=3)
+    early = (run / "checkpoint.pt").read_bytes()
+    carried(run)
+    chunk = next((run / packed.FOLDER).glob("episodes-*.npz"))
+    part = dict(np.load(chunk))
+    part["state0"] = part["state0"][:, :-1]  # as if envs.STATE_SPEC had changed
+    np.savez_compressed(chunk, **part)
+    with pytest.raises(CheckpointError, match="holds state0 of shape"):
+        packed.unpack(run)
+    state = run / packed.FOLDER / packed.STATE
+    state.write_bytes(b"\x1f\x8b\x08\x00" + bytes(range(200)))  # a gzip header, noise
+    capsys.readouterr()
+    assert main(["train", "--resume", str(run), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "state.pt.gz" in err[-1] and "Traceback" not in "".join(err)
+    # beside a checkpoint.pt the damaged pack loses (said in one line), packed over
+    (run / "checkpoint.pt").write_bytes(early)
+    assert main(["pack", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "packed   " in out and "passed over" in out
+    assert packed.cycle_of(packed.read_state(run)) == 3
+
+
+def test_pack_goes_on_past_a_run_it_cannot_pack(tmp_path, capsys):
+    root = tmp_path / "results"
+    bad, good = root / "a" / "seed0", root / "b" / "seed0"
+    for d in (bad, good):
+        Trainer(tiny_config(epochs=2), str(d)).train(False, max_cycles=3)
+    (bad / "checkpoint.pt").write_bytes(b"not a checkpoint")
+    assert main(["pack", str(root)]) == 2
+    out, err = capsys.readouterr()
+    assert f"failed   {bad}" in err and f"packed   {good}" in out
+    assert packed.has_packed(good) and not packed.has_packed(bad)
