@@ -93,13 +93,14 @@ def test_dry_run(grid, capsys):
     )
     assert S.run(args) == 0
     out = capsys.readouterr().out.splitlines()
-    actions = [line.split()[:2] for line in out[:-1]]
+    actions = [line.split()[:2] for line in out[:-2]]
     assert actions == [
         ["skip", "FetchReach-v4/her/seed0"],
         ["resume", "FetchReach-v4/her/seed1"],
         ["run", "FetchReach-v4/her/seed2"],
     ] + [["skip", f"FetchReach-v4/her-ebp/seed{k}"] for k in range(3)]
-    assert "1 to run, 1 to resume, 0 to copy, 4 to skip" in out[-1]
+    assert "1 to run, 1 to resume, 0 to copy, 4 to skip" in out[-2]
+    assert out[-1].startswith("sweep: time left: ")  # acder_lite.grid_time
     assert not (
         grid / "FetchReach-v4" / "her" / "seed2"
     ).exists()  # a dry run creates nothing
