@@ -84,13 +84,12 @@ def replay(env, state0: np.ndarray, u: np.ndarray, g: np.ndarray) -> dict:
     state for its T + 1 steps, as `rollout.run_episodes` recorded them, and whether
     its last step succeeded."""
     T = u.shape[0]
-    obs0 = env._get_obs()
-    o = np.empty((T + 1, obs0["observation"].size), np.float32)
-    ag = np.empty((T + 1, obs0["achieved_goal"].size), np.float32)
-    state = np.empty((T + 1, state0.size), np.float64)
     E.set_state(env, state0)
     env.goal = np.array(g, dtype=np.float64)
     obs = env._get_obs()
+    o = np.empty((T + 1, obs["observation"].size), np.float32)
+    ag = np.empty((T + 1, obs["achieved_goal"].size), np.float32)
+    state = np.empty((T + 1, state0.size), np.float64)
     o[0], ag[0], state[0] = obs["observation"], obs["achieved_goal"], state0
     ok = False
     for t in range(T):
@@ -126,21 +125,16 @@ def rebuild(env, meta: dict, chunks: list[dict]) -> dict:
             f"packed checkpoint: its chunks hold {parts['u'].shape[0]} episodes, "
             f"its state names {n}; allowed: a folder `pack` wrote"
         )
-    first = replay(env, parts["state0"][0], parts["u"][0], parts["g"][0])
     out = dict(
-        o=np.empty((n, *first["o"].shape), np.float32),
-        ag=np.empty((n, *first["ag"].shape), np.float32),
+        o=np.empty((n, T + 1, obs["observation"].size), np.float32),
+        ag=np.empty((n, T + 1, obs["achieved_goal"].size), np.float32),
         g=np.repeat(parts["g"][:, None, :], T, axis=1),
         u=parts["u"],
-        state=np.empty((n, *first["state"].shape), np.float64),
+        state=np.empty((n, T + 1, want["state0"][0]), np.float64),
         success=parts["success"],
     )
     for e in range(n):
-        ep = (
-            first
-            if e == 0
-            else replay(env, parts["state0"][e], out["u"][e], parts["g"][e])
-        )
+        ep = replay(env, parts["state0"][e], out["u"][e], parts["g"][e])
         out["o"][e], out["ag"][e], out["state"][e] = ep["o"], ep["ag"], ep["state"]
     if digest(out) != meta["digest"]:
         raise CheckpointError(

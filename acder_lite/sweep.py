@@ -142,7 +142,7 @@ def plan_cell(cell: Cell) -> Cell:
             (
                 "checkpoint.pt found"
                 if (cell.out / "checkpoint.pt").exists()
-                else f"{packed.FOLDER} found (its buffer re-simulated)"
+                else f"{packed.FOLDER} found: its buffer is re-simulated"
             ),
         )
     elif state == "orphan":
