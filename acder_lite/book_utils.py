@@ -25,11 +25,18 @@ def show_source(obj, lines: tuple[int, int] | None = None):
 
 def budgets(fast: bool, **pairs) -> dict:
     """Pick each budget: `name=(full, fast)` -> value for this mode.
-    Prints the table."""
+
+    Prints the table, and the precision `Config.update_dtype="auto"` picks on this CPU:
+    the chapters train with the default, so a reader on another CPU sees why their
+    numbers differ from the rendered book's in the later digits."""
+    from .precision import choose_update_dtype
+
     chosen = {k: (v[1] if fast else v[0]) for k, v in pairs.items()}
     print(
         f"ACDER_FAST={int(fast)}: " + ", ".join(f"{k}={v}" for k, v in chosen.items())
     )
+    dtype, why = choose_update_dtype("auto")
+    print(f"network updates in {dtype} on this CPU ({why})")
     return chosen
 
 

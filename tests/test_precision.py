@@ -70,3 +70,19 @@ def test_train_records_the_choice_and_warns(tmp_path, monkeypatch, capsys):
         if line.startswith("warning")
     ]
     assert len(err) == 1 and "17.0x slower" in err[0]
+
+
+@pytest.mark.parametrize("native, want", [(True, "bfloat16"), (False, "float32")])
+def test_the_chapters_first_cell_says_which_precision_trains(
+    monkeypatch, capsys, native, want
+):
+    # the chapters train with update_dtype="auto"; `budgets` prints what it chose here
+    from acder_lite.book_utils import budgets
+
+    monkeypatch.setattr(precision, "native_bf16", lambda: (native, "probe"))
+    assert budgets(True, cycles=(40, 8)) == {"cycles": 8}
+    lines = capsys.readouterr().out.splitlines()
+    assert lines == [
+        "ACDER_FAST=1: cycles=8",
+        f"network updates in {want} on this CPU (auto: probe)",
+    ]
