@@ -7,10 +7,10 @@
   robot. Every process of the session listens on loopback only.
 - Built book: `_build/html` if `make book` made it, else a small book built here
   (chapter 1 with its Meshcat scene, the paper page with its equations, chapter 8 with
-  Table I) under ACDER_FAST=1. Every page loads without a request leaving
-  127.0.0.1/file:, MathJax has typeset every equation, Table I is an HTML <table>, no
-  page shows a raw Markdown table, and every embedded scene's canvas shows more than a
-  background.
+  Table I, a page whose cell displays a bench table) under ACDER_FAST=1. Every page
+  loads without a request leaving 127.0.0.1/file:, MathJax has typeset every equation,
+  Table I and the bench table are HTML <table>s, no page shows a raw Markdown table,
+  and every embedded scene's canvas shows more than a background.
 
 The browser is /usr/bin/chromium (`apt-get install chromium`), never a downloaded one.
 Without it the module is skipped with one line; under CI=true that is an error instead.
@@ -50,6 +50,9 @@ LIVE_CHAPTER = (
 SCENE_CHAPTER = "notebooks/01_fetch_tasks"  # embeds a saved Meshcat scene (an iframe)
 TABLE_CHAPTER = "notebooks/08_results"  # Table I
 MATH_PAGE = "book/paper"  # display and inline equations
+# a page written here: a cell displays a bench table as chapter 10 does (IPython's
+# Markdown); the book's config must render it as a <table>, not as `| ... |` text
+OUTPUTS_PAGE = "notebooks/markdown_outputs"
 BUILD_TIMEOUT = 600
 RUN_TIMEOUT = 300
 
@@ -167,6 +170,7 @@ parts:
     chapters:
       - file: {SCENE_CHAPTER}
       - file: {TABLE_CHAPTER}
+      - file: {OUTPUTS_PAGE}
 """
 
 
@@ -181,6 +185,22 @@ def _toc_files(node) -> list[str]:
             out.append(part["file"])
         out += _toc_files(part)
     return out
+
+
+def _write_outputs_page(path: Path) -> None:
+    import nbformat
+
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [
+        nbformat.v4.new_markdown_cell("# Markdown outputs"),
+        nbformat.v4.new_code_cell(
+            "from IPython.display import Markdown, display\n"
+            "from acder_lite import robust as R\n"
+            "row = dict(knob='obs_noise', level=0.0, successes=3, trials=4)\n"
+            "display(Markdown(R.side_by_side({'full state': dict(rows=[row])})))"
+        ),
+    ]
+    nbformat.write(nb, path)
 
 
 class Book:
@@ -211,11 +231,12 @@ class Book:
         os.symlink(ROOT / "book" / "_static", src / "book" / "_static")
         for page in (SCENE_CHAPTER, TABLE_CHAPTER):
             shutil.copy(ROOT / f"{page}.ipynb", src / f"{page}.ipynb")
+        _write_outputs_page(src / f"{OUTPUTS_PAGE}.ipynb")
         shutil.copy(ROOT / "_config.yml", src / "_config.yml")
         (src / "_toc.yml").write_text(SMALL_TOC)
         self.html, self.pages, self.built_here = (
             src / "_build" / "html",
-            [MATH_PAGE, SCENE_CHAPTER, TABLE_CHAPTER],
+            [MATH_PAGE, SCENE_CHAPTER, TABLE_CHAPTER, OUTPUTS_PAGE],
             True,
         )
         self.log = tmp / "build.log"
@@ -672,6 +693,8 @@ def check_page(
                     "Table I is not an HTML <table> (no <table> with a 'Mean curve' "
                     "column in the 'Table I' section)"
                 )
+        if name == OUTPUTS_PAGE and not page.locator("table").count():
+            problems.append("the bench table a cell displays is not an HTML <table>")
         if name == SCENE_CHAPTER and not facts["scenes"]:
             problems.append("no embedded Meshcat scene")
         for k, src in enumerate(facts["scenes"]):
