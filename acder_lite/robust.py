@@ -528,6 +528,13 @@ def weakest(result: dict) -> dict:
     return min(result["rows"], key=lambda r: r["successes"])
 
 
+def quantity(level: float, unit: str) -> str:
+    """A level with its unit for prose and tables: "0.02 m", "1 step", "2 steps"."""
+    if unit == "steps" and level == 1:
+        unit = "step"
+    return f"{level:g} {unit}"
+
+
 def reading(label: str, result: dict | None) -> str:
     """One clause reading a bench: the policy `label`'s nominal count and its weakest
     level ("not trained yet" for None)."""
@@ -543,7 +550,7 @@ def reading(label: str, result: dict | None) -> str:
         return head + " and as often at every perturbed level"
     return (
         head + f" and in {low['successes']} at its weakest, "
-        f"`{low['knob']}` = {low['level']:g} {low['unit']}"
+        f"`{low['knob']}` = {quantity(low['level'], low['unit'])}"
     )
 
 
@@ -565,11 +572,12 @@ def side_by_side(results: dict[str, dict]) -> str:
         "|---|---:|" + "---:|" * len(results),
     ]
     for knob, level in rows:
-        unit = KNOBS[knob].unit
         cells = [c.get((knob, level), "–") for c in counts.values()]
         mark = " (nominal)" if level == KNOBS[knob].nominal else ""
         lines.append(
-            f"| `{knob}` | {level:g} {unit}{mark} | " + " | ".join(cells) + " |"
+            f"| `{knob}` | {quantity(level, KNOBS[knob].unit)}{mark} | "
+            + " | ".join(cells)
+            + " |"
         )
     return "\n".join(lines)
 

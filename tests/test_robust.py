@@ -71,7 +71,7 @@ def test_side_by_side_puts_benches_in_columns():
     reach = run_bench(
         reach_controller,
         "FetchReach-v4",
-        knobs={"action_delay": [0, 2]},
+        knobs={"action_delay": [0, 1, 2]},
         trials=3,
         seed=7,
     )
@@ -93,7 +93,8 @@ def test_side_by_side_puts_benches_in_columns():
         f"{lazy['rows'][0]['successes']}/2",
     ]
     assert [c.strip() for c in by_row[("`goal_noise`", "0.01 m")]] == ["–", "0/2"]
-    assert len(lines) == 2 + 3  # delay 0, delay 2, goal noise 0.01
+    assert ("`action_delay`", "1 step") in by_row  # singular
+    assert len(lines) == 2 + 4  # delay 0, 1, 2, goal noise 0.01
     low = weakest(reach)
     assert low["successes"] == min(r["successes"] for r in reach["rows"])
     assert reading("full state", None) == "the full-state policy is not trained yet"
