@@ -30,9 +30,11 @@ def select_candidate(r_int: np.ndarray, episode_success: np.ndarray) -> int | No
     episode succeeded.
 
     None when no row comes from a successful episode. Trap: r_int is clipped at eta
-    (Eq. 4), and on Push a quarter of the eligible rows sit at the clip, so the maximum
-    is usually a tie; argmax then takes the first tied row, and since minibatch rows are
-    in random order, a random one (`python -m acder_lite diagnose RUN` shows how often).
+    (Eq. 4); on S-ICM's normalised inputs (protocol v1) a quarter of the eligible rows
+    on Push sat at the clip, so the maximum was usually a tie (on raw inputs, the
+    default, few rows reach it). argmax takes the first tied row, and since minibatch
+    rows are in random order, a random one (`python -m acder_lite diagnose RUN` shows
+    how often).
     """
     ok = np.flatnonzero(episode_success)
     if ok.size == 0:

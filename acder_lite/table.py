@@ -325,7 +325,7 @@ def _verdict(rs: list[RatioStat]) -> str:
     if not any(where.values()):
         return (
             "We cannot say yet whether the paper's factor of five reproduces: no task "
-            "has both HER and ACDER past the threshold."
+            "has both HER's and ACDER's mean curves past the threshold."
         )
     said = [f"{key} our 95% interval on {and_join(v)}" for key, v in where.items() if v]
     text = "The paper's HER/ACDER ratio lies " + "; ".join(said) + ". "
@@ -390,7 +390,10 @@ def grid_state(cells: list[CellStat]) -> str:
     started = sum(c.done > 0 for c in cells)
     done, unfinished = sum(c.done for c in cells), sum(c.unfinished for c in cells)
     planned = sum(c.planned or 0 for c in cells)
-    text = f"{started} of the grid's {len(cells)} cells have at least one finished seed"
+    text = (
+        f"{started} of the {len(cells)} cells of Table I and Fig. 5 (the three tasks) "
+        "have at least one finished seed"
+    )
     text += (
         f"; {done} of the {planned} planned seeds have finished"
         if planned

@@ -482,3 +482,26 @@ def test_finished_run_skips_a_run_still_training(tmp_path):
             (tmp_path / name / f).write_text("x")
     assert finished_run(tmp_path, "missing", "live", "done") == "done"
     assert finished_run(tmp_path, "live") is None
+
+
+def test_grid_state_counts_the_three_tasks_cells_only():
+    from acder_lite.report import CellStat, grid_cells
+
+    grid = grid_cells()
+    cells = [
+        CellStat(env=e, name=n, method=n, threshold=0.95, planned=3) for e, n in grid
+    ]
+    cells[0].done, cells[0].n = 2, 3
+    cells[0].unfinished = 1
+    cells[1].done, cells[1].n = 3, 3
+    # outside Table I and Fig. 5: not counted
+    cells.append(
+        CellStat(env="FetchPushMultiStep-v0", name="her", method="her", threshold=0.95)
+    )
+    cells[-1].done, cells[-1].planned = 1, 1
+    planned = 3 * len(grid)
+    assert T.grid_state(cells) == (
+        f"2 of the {len(grid)} cells of Table I and Fig. 5 (the three tasks) have at "
+        f"least one finished seed; 5 of the {planned} planned seeds have finished, "
+        "1 more is training or interrupted."
+    )
