@@ -26,7 +26,6 @@ import os
 import re
 import secrets
 import shutil
-import socket
 import subprocess
 import sys
 import time
@@ -89,12 +88,6 @@ def _descendants(pid: int) -> list[int]:
         return [p.pid for p in psutil.Process(pid).children(recursive=True)]
     except psutil.NoSuchProcess:
         return []
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 _LOCAL = re.compile(r"^(file:|data:|blob:|about:|(https?|wss?)://127\.0\.0\.1[:/])")
@@ -296,8 +289,10 @@ class Lab:
     kernels under ACDER_FAST=1."""
 
     def __init__(self, root: Path, tmp: Path):
-        self.port, self.token = _free_port(), secrets.token_hex(24)
-        self.url = f"http://127.0.0.1:{self.port}"
+        # port 0: the server takes a port the OS gives it and names it in its info file
+        # (a port picked here and passed on could be taken by another test in between)
+        self.port, self.url, self.token = None, None, secrets.token_hex(24)
+        info = tmp / "runtime"
         for d in ("config", "runtime", "data", "settings", "workspaces", "ipython"):
             (tmp / d).mkdir(exist_ok=True)
         env = dict(
@@ -319,8 +314,7 @@ class Lab:
             "jupyterlab",
             f"--config={LAB_CONFIG}",
             "--no-browser",
-            f"--port={self.port}",
-            "--port-retries=0",
+            "--port=0",
             f"--ServerApp.root_dir={root}",
             f"--IdentityProvider.token={self.token}",
             "--LabApp.expose_app_in_browser=True",
@@ -344,8 +338,10 @@ class Lab:
                     f"({self.proc.returncode}):\n{self.log.read_text()[-3000:]}",
                     pytrace=False,
                 )
+            if self.port is None:
+                self._read_port(info / f"jpserver-{self.proc.pid}.json")
             try:
-                if self.get("/api/status")[0] == 200:
+                if self.port is not None and self.get("/api/status")[0] == 200:
                     break
             except OSError:
                 pass
@@ -355,6 +351,13 @@ class Lab:
                     f"JupyterLab did not answer within 90 s; {self.log}", pytrace=False
                 )
             time.sleep(0.3)
+
+    def _read_port(self, path: Path) -> None:
+        try:
+            port = int(json.loads(path.read_text())["port"])
+        except (OSError, ValueError, KeyError):
+            return  # not written yet, or half written
+        self.port, self.url = port, f"http://127.0.0.1:{port}"
 
     def get(self, path: str, token: bool = True) -> tuple[int, bytes]:
         url = (
