@@ -204,21 +204,21 @@ def test_results_folder_that_is_a_file(tmp_path, capsys):
 def test_address_that_does_not_answer(tmp_path, capsys):
     """A cluster address where nothing listens: one line, exit 2, nothing written,
     no Ray started."""
-    with (
-        socket.socket() as s
-    ):  # a free port on loopback, then closed: nothing listens there
+    # a port on loopback held, bound but not listening, for the whole call: nothing
+    # answers there, and no other process can take it meanwhile
+    with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    args = parse(
-        [
-            *REACH_HER_0,
-            str(tmp_path / "r"),
-            "--address",
-            f"ray://127.0.0.1:{port}",
-        ]
-    )
-    t0 = time.monotonic()
-    assert S.run(args) == 2
+        args = parse(
+            [
+                *REACH_HER_0,
+                str(tmp_path / "r"),
+                "--address",
+                f"ray://127.0.0.1:{port}",
+            ]
+        )
+        t0 = time.monotonic()
+        assert S.run(args) == 2
     err = capsys.readouterr().err
     assert (
         err.count("\n") == 1 and "does not answer" in err and time.monotonic() - t0 < 10
