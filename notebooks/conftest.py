@@ -37,7 +37,9 @@ class IPCKernelManager(AsyncKernelManager):
 
 
 # nbmake 1.5.5 builds its NotebookClient by this module-level name and offers no option
-# for the kernel manager; the pin in requirements.txt keeps this line true.
+# for the kernel manager; the pin in requirements.txt keeps this line true, and the
+# assert makes an nbmake without that name fail loudly instead of racing again.
+assert hasattr(nbmake.nb_run, "NotebookClient"), "nbmake no longer has NotebookClient"
 nbmake.nb_run.NotebookClient = functools.partial(
     nbclient.NotebookClient, kernel_manager_class=IPCKernelManager
 )
