@@ -1,4 +1,4 @@
-"""`python -m acder_lite {train,eval,bench,sweep,table,diagnose,robust,export}`.
+"""`python -m acder_lite {train,eval,bench,sweep,pack,table,diagnose,robust,export}`.
 
 Bad input exits with code 2 and one line naming the field and what is allowed; no
 traceback.

@@ -200,7 +200,8 @@ class Config:
     """W envs stepped together; stands in for the paper's W MPI workers."""
     epochs: int | None = None
     """Training epochs; the run's budget.
-    None: the task preset (paper: Reach 25, Push 50, Pick&Place 100)."""
+    None: the task preset (paper: Reach 25, Push 50, Pick&Place 100, Multi-step Push
+    400; ours: Slide 50)."""
     cycles: int | None = None
     """Cycles per epoch.
     None: the task preset (Baselines: 10 on FetchReach, 50 elsewhere)."""
@@ -215,8 +216,9 @@ class Config:
     """Deterministic test episodes per worker after each epoch (Baselines:
     n_test_rollouts=10 x rollout_batch_size=2; protocol v1 used 10)."""
     eval_every_cycles: int = 0
-    """Also evaluate every N cycles (0: only at the end of each epoch).
-    Table I suggests 5."""
+    """Also evaluate every N cycles (0: only at the end of each epoch, protocol v2).
+    Protocol v1 used 5 (0.1 epoch at 50 cycles); Table I's statistic now interpolates
+    between epoch evaluations instead (`report`)."""
     buffer_size: int = 1_000_000
     """Replay capacity in transitions (episodes of T steps are stored whole), per worker
     when `buffer_scope` is 'worker'."""
@@ -270,10 +272,11 @@ class Config:
     """Eq. 4 clip of the intrinsic reward, in (0, 1).
     None: the task preset (0.05 Reach, 0.8 else)."""
     alpha0: float | None = None
-    """Eq. 9 initial ratio of novel starts, in [0, 1]. None: the task preset (0.8)."""
+    """Eq. 9 initial ratio of novel starts, in [0, 1]. None: the task preset (0.8; 0.7
+    on FetchPushMultiStep-v0, section V-B)."""
     sicm_hidden: int = 256
-    """Hidden units of S-ICM's forward model
-    (paper: one hidden layer of 256; 3 layers in all)."""
+    """Hidden units of S-ICM's forward model (paper: one hidden layer of 256; 3 layers
+    in all), and of ICM's networks for her-icm."""
     sicm_input: str = "raw"
     """What S-ICM sees and predicts (Eq. 7-8): 'raw' (o, g), clipped to clip_obs only,
     or 'normalised' (o, g), the policy's inputs. The paper does not say;
@@ -358,7 +361,8 @@ class Config:
     """Filled by `resolve()`: why device is what it is (recorded in config.json)."""
     success_threshold: float | None = None
     """Test success rate Table I counts episodes to and the stop rule holds. None: the
-    task preset (paper: Reach 1.0, Push and Pick&Place 0.95)."""
+    task preset (paper: Reach 1.0, Push and Pick&Place 0.95; ours: 0.95 on Slide and
+    the multi-step Push)."""
     stop_patience: int = 5
     """The stop rule: end the run once test success >= success_threshold at this many
     evaluations in a row (with eval_every_cycles=0, epoch evaluations); 0: always run
@@ -372,8 +376,8 @@ class Config:
     """Filled from `METHODS[method]` by `resolve()`; recorded in config.json."""
 
     def resolve(self) -> "Config":
-        """Validate, then fill presets (eta, alpha0) and the method's switches.
-        Returns self."""
+        """Validate, then fill the task presets (`PRESET_FIELDS`), the method's
+        switches, and the `auto` device and update dtype. Returns self."""
         self.validate()
         preset = TASK_PRESETS[self.env]
         for name in PRESET_FIELDS:

@@ -1,8 +1,9 @@
 """diagnose a run: S-ICM's novelty, the start pool, how the policy moves the object
 
-`python -m acder_lite diagnose results/FetchPush-v4/acder/seed1` loads the run's
-`checkpoint.pt`, draws minibatches from its replay buffer exactly as training does, and
-reports
+`python -m acder_lite diagnose results/FetchPush-v4/acder/seed4` loads the run's
+`checkpoint.pt` (a run folder that still holds one: not a copied `same_as` cell, and
+only on the machine that trained it, the file being too large to commit), draws
+minibatches from its replay buffer exactly as training does, and reports
 
 - **curiosity**: how the S-ICM error 1/2 ||F(s, a) - s'||^2 (Eq. 4 before the clip) is
   spread, the share of rows at the clip eta, overall and among rows of successful

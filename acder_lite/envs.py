@@ -1,7 +1,8 @@
 """The Fetch tasks: construction, seeding, and saving/restoring the full MuJoCo state.
 
-We step the unwrapped MuJoCo env and count the 50-step horizon ourselves (as Baselines'
-rollout worker does), which skips gymnasium's checker wrappers on the hot path.
+We step the unwrapped MuJoCo env and count the task's horizon ourselves (`horizon`: 50
+steps, 100 on FetchPushMultiStep-v0; as Baselines' rollout worker does), which skips
+gymnasium's checker wrappers on the hot path.
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ STATE_SPEC = int(
 """What a stored state holds: mjSTATE_FULLPHYSICS (time, qpos, qvel, act, history,
 plugin state) plus the solver warm start, ctrl, the mocap pose and active equality
 constraints.
-DESIGN.md names FULLPHYSICS alone; without the warm start the solver starts from another
+FULLPHYSICS alone is not enough (DESIGN.md lists the same parts): without the warm
+start the solver starts from another
 guess and a restored rollout drifts, by 1e-15 to 1e-11 within 20-40 steps depending on
 the task and MuJoCo's version (chapter 6 measures it), with it they match bit for bit.
 The mocap pose and ctrl cost 7 numbers and keep restores exact for models that do not
@@ -113,11 +115,11 @@ def obs_names(env, full: bool = False) -> list[str]:
     in the order `_get_obs` builds it.
 
     Reach has no object: its 10 entries are the gripper's position, finger state and
-    velocities. Push and Pick&Place add the object's position, its position relative to
-    the gripper, its rotation (Euler angles) and its linear and angular velocities (25
-    entries). With several objects (FetchPushMultiStep-v0: `env.n_objects` = 2, 40
-    entries) each object field holds every object in turn, named object0_pos,
-    object1_pos, ... (`acder_lite.multistep.OBS_LAYOUT`).
+    velocities. Push, Pick&Place and Slide add the object's position, its position
+    relative to the gripper, its rotation (Euler angles) and its linear and angular
+    velocities (25 entries). With several objects (FetchPushMultiStep-v0:
+    `env.n_objects` = 2, 40 entries) each object field holds every object in turn, named
+    object0_pos, object1_pos, ... (`acder_lite.multistep.OBS_LAYOUT`).
 
     An env made with obs="simplified" gives the names of the entries it keeps, in its
     order (`acder_lite.observations`); `full=True` gives the full vector's names

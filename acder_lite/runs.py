@@ -27,7 +27,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from .config import Config, ConfigError, upgrade_legacy
+from .config import TASK_PRESETS, Config, ConfigError, upgrade_legacy
 from .report import episodes_to_threshold, threshold
 
 REQUIRED_COLUMNS = ("episodes", "test_success")
@@ -165,18 +165,22 @@ def planned_epochs(config_json: dict) -> int | None:
 
     A run ended at an epoch by `train --resume DIR --epochs N` (protocol v1) has N in
     its config, so the plan is read from the first command: its `--epochs`, else the
-    config's value if no resume changed it, else the Config default the command fell
-    back on.
+    config's value if no resume changed it, else what the first command fell back on:
+    the Config default, or where that is None (today) the task preset.
     """
     first = epochs_option(config_json.get("command", ""))
     if first is not None:
         return first
+    cfg = config_json.get("config", {})
     if all(
         epochs_option(r.get("command", "")) is None
         for r in config_json.get("resumes", [])
     ):
-        return config_json.get("config", {}).get("epochs")
-    return Config.__dataclass_fields__["epochs"].default
+        return cfg.get("epochs")
+    default = Config.__dataclass_fields__["epochs"].default
+    if default is None:  # a resume's --epochs wrote its N into the config: not the plan
+        default = TASK_PRESETS.get(cfg.get("env"), {}).get("epochs")
+    return default
 
 
 def how_it_ended(done: dict | None, planned: int | None) -> str | None:

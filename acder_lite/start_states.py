@@ -3,7 +3,8 @@
 From each training minibatch, the transitions of episodes that ended in success are
 kept; the one with the largest intrinsic reward becomes a candidate start state (its
 full MuJoCo state after the transition, and the episode's goal). New episodes restart
-from a candidate with probability alpha.
+from a candidate with probability alpha; the stored goal is used only with
+`restart_goal='episode'`, by default a restarted episode gets a fresh goal.
 """
 
 from __future__ import annotations

@@ -73,8 +73,8 @@ class Cell:
     seed: int
     out: Path
     action: str
-    """'run' (fresh), 'resume' (checkpoint.pt, no done.json) or 'skip'
-    (see `plan_cell`)."""
+    """'run' (fresh), 'resume' (checkpoint.pt or checkpoint.packed/, no done.json),
+    'copy' (a finished `same_as` run) or 'skip' (see `plan_cell`)."""
     note: str = ""
     """Why a cell is skipped, or what was found in its directory."""
     options: dict = field(default_factory=dict)

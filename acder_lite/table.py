@@ -238,7 +238,7 @@ def to_html(header, rows) -> str:
 
 CAPTION = (
     "Training episodes until the mean test success over seeds first reaches the "
-    "threshold (Reach 100%, Push and Pick&Place 95%): the mean curve at the epoch "
+    "threshold (Reach 100%, 95% on the other tasks): the mean curve at the epoch "
     "evaluations, linearly interpolated, a seed stopped by the stop rule carrying its "
     "last 5 evaluations' mean forward; in Table I's unit of 400 episodes an epoch "
     "(where our epoch holds fewer, our own episodes in brackets); for a cell still "

@@ -194,6 +194,9 @@ def test_planned_epochs():
         )
         == 18
     )
+    # started on the task's preset (no --epochs), ended at 18 by a resume: the preset
+    push = dict(env="FetchPush-v4", epochs=18)
+    assert RU.planned_epochs(dict(config=push, command=train, resumes=[ended])) == 50
 
 
 def test_how_ended(tmp_path):
