@@ -509,7 +509,8 @@ def to_text(result: dict) -> str:
         name, last = (r["knob"] if r["knob"] != last else ""), r["knob"]
         mark = "  (nominal)" if r["nominal"] else ""
         count = f"{r['successes']:>5}/{r['trials']}"
-        lines.append(f"{name:<14}{r['level']:>7g} {r['unit']:<6}{count}{mark}")
+        unit = unit_of(r["level"], r["unit"])
+        lines.append(f"{name:<14}{r['level']:>7g} {unit:<6}{count}{mark}")
     return "\n".join(lines)
 
 
@@ -528,11 +529,14 @@ def weakest(result: dict) -> dict:
     return min(result["rows"], key=lambda r: r["successes"])
 
 
+def unit_of(level: float, unit: str) -> str:
+    """A knob's unit as a level reads it: "step" for 1 step, else `unit`."""
+    return "step" if unit == "steps" and level == 1 else unit
+
+
 def quantity(level: float, unit: str) -> str:
     """A level with its unit for prose and tables: "0.02 m", "1 step", "2 steps"."""
-    if unit == "steps" and level == 1:
-        unit = "step"
-    return f"{level:g} {unit}"
+    return f"{level:g} {unit_of(level, unit)}"
 
 
 def reading(label: str, result: dict | None) -> str:

@@ -165,8 +165,8 @@ def planned_epochs(config_json: dict) -> int | None:
 
     A run ended at an epoch by `train --resume DIR --epochs N` (protocol v1) has N in
     its config, so the plan is read from the first command: its `--epochs`, else the
-    config's value if no resume changed it, else what the first command fell back on:
-    the Config default, or where that is None (today) the task preset.
+    config's value if no resume changed it, else the task preset the first command
+    fell back on (`Config.epochs` None).
     """
     first = epochs_option(config_json.get("command", ""))
     if first is not None:
@@ -177,10 +177,8 @@ def planned_epochs(config_json: dict) -> int | None:
         for r in config_json.get("resumes", [])
     ):
         return cfg.get("epochs")
-    default = Config.__dataclass_fields__["epochs"].default
-    if default is None:  # a resume's --epochs wrote its N into the config: not the plan
-        default = TASK_PRESETS.get(cfg.get("env"), {}).get("epochs")
-    return default
+    # a resume's --epochs wrote its N into the config: that is not the plan
+    return TASK_PRESETS.get(cfg.get("env"), {}).get("epochs")
 
 
 def how_it_ended(done: dict | None, planned: int | None) -> str | None:
