@@ -3,8 +3,8 @@
 All figures are measured in the same run (this machine is noisy): random-action
 simulation per episode, full training per episode (collection + 40 updates per cycle +
 target update, after a warm-up cycle), the update step's achieved GFLOP/s (FLOPs counted
-by torch's FlopCounterMode) and the machine's fp32 matmul GFLOP/s at the update's layer
-shape, on the same threads. `--update-dtype both` also times the update step and whole
+by torch's FlopCounterMode) and the machine's matmul GFLOP/s at the update's layer
+shape, in the update's precision, on the same threads. `--update-dtype both` also times the update step and whole
 training cycles in float32 and bfloat16 (interleaved, so both see the same machine) and
 prints the two ratios: the update's alone, and the end-to-end one per training episode
 that decides how long a run takes.
@@ -46,12 +46,17 @@ def matmul_gflops(
     n: int = 256,
     seconds: float = 1.0,
     device="cpu",
+    dtype: str = "float32",
 ) -> float:
-    """fp32 GFLOP/s of (m x k) @ (k x n),
-    the shape of a hidden layer on one minibatch."""
+    """GFLOP/s of (m x k) @ (k x n) in `dtype`, the shape of a hidden layer on one
+    minibatch.
+
+    Trap: a bfloat16 update is held to the bfloat16 rate (on a CPU with AMX it is several
+    times float32's); measured at float32's, its share of the limit reads above 1."""
     torch.set_num_threads(threads)
-    a, b = torch.randn(m, k, device=device), torch.randn(k, n, device=device)
-    out = torch.empty(m, n, device=device)
+    kw = dict(device=device, dtype=getattr(torch, dtype))
+    a, b = torch.randn(m, k, **kw), torch.randn(k, n, **kw)
+    out = torch.empty(m, n, **kw)
     for _ in range(20):
         torch.mm(a, b, out=out)
     sync(device)
@@ -166,7 +171,7 @@ def run_bench(args) -> int:
     upd = {dt: float(np.median(b)) for dt, b in blocks.items()}
     upd_s = upd[dtypes[0]]
     upd_gflops = flops / upd_s / 1e9
-    mm = matmul_gflops(args.threads, device=dev)
+    mm = matmul_gflops(args.threads, device=dev, dtype=dtypes[0])
     updates_per_episode = cfg.updates_per_cycle / per_cycle
     limit_ms = sim_ms + updates_per_episode * flops / (mm * 1e9) * 1e3
     print(

@@ -125,3 +125,22 @@ def test_bench_counts_the_flops_of_both_loss_threads():
         flops[threads] = update_flops(tr)
         assert (tr.agent.actor_thread is None) == (threads == 1)  # put back
     assert flops[1] == flops[2] > 0
+
+
+def test_bench_matmul_rate_is_measured_in_the_updates_precision(monkeypatch):
+    """A bfloat16 update is held to the bfloat16 matmul rate, not float32's (on a CPU
+    with AMX the two differ several times, and share_of_limit read above 1)."""
+    from acder_lite import bench
+
+    seen = []
+    mm = torch.mm
+
+    def spy(a, b, **kw):
+        seen.append((a.dtype, b.dtype))
+        return mm(a, b, **kw)
+
+    monkeypatch.setattr(bench.torch, "mm", spy)
+    for dtype in ("float32", "bfloat16"):
+        seen.clear()
+        assert bench.matmul_gflops(1, m=64, k=32, n=32, seconds=0.01, dtype=dtype) > 0
+        assert set(seen) == {(getattr(torch, dtype),) * 2}
