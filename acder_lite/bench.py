@@ -4,10 +4,10 @@ All figures are measured in the same run (this machine is noisy): random-action
 simulation per episode, full training per episode (collection + 40 updates per cycle +
 target update, after a warm-up cycle), the update step's achieved GFLOP/s (FLOPs counted
 by torch's FlopCounterMode) and the machine's matmul GFLOP/s at the update's layer
-shape, in the update's precision, on the same threads. `--update-dtype both` also times the update step and whole
-training cycles in float32 and bfloat16 (interleaved, so both see the same machine) and
-prints the two ratios: the update's alone, and the end-to-end one per training episode
-that decides how long a run takes.
+shape, in the update's precision, on the same threads. `--update-dtype both` also times
+the update step and whole training cycles in float32 and bfloat16 (interleaved, so both
+see the same machine) and prints the two ratios: the update's alone, and the end-to-end
+one per training episode that decides how long a run takes.
 
 The last line also gives the limit the hardware sets and how close training comes to it:
 `limit_ms_per_episode` = simulation per episode (the W envs stepped in parallel on the
@@ -51,8 +51,8 @@ def matmul_gflops(
     """GFLOP/s of (m x k) @ (k x n) in `dtype`, the shape of a hidden layer on one
     minibatch.
 
-    Trap: a bfloat16 update is held to the bfloat16 rate (on a CPU with AMX it is several
-    times float32's); measured at float32's, its share of the limit reads above 1."""
+    Trap: a bfloat16 update is held to the bfloat16 rate (on a CPU with AMX it is
+    several times float32's); at float32's, its share of the limit reads above 1."""
     torch.set_num_threads(threads)
     kw = dict(device=device, dtype=getattr(torch, dtype))
     a, b = torch.randn(m, k, **kw), torch.randn(k, n, **kw)
