@@ -30,6 +30,17 @@ def tiny_config(**kw) -> Config:
     return Config(**base)
 
 
+def rows_of(path) -> list[dict]:
+    """A run's progress.csv rows as text, without the one column that differs between
+    two runs computing the same numbers (wall_s)."""
+    import csv
+
+    with open(path) as f:
+        return [
+            {k: v for k, v in r.items() if k != "wall_s"} for r in csv.DictReader(f)
+        ]
+
+
 def push_cell(name: str, crossing, low, high):
     """A FetchPush CellStat with only a mean-curve crossing and its interval (epochs),
     for the readings' rule (report.choose) and its sentence (table.choice_sentence)."""

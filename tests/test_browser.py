@@ -196,15 +196,27 @@ def _write_outputs_page(path: Path) -> None:
     nbformat.write(nb, path)
 
 
+def _built_after_its_sources(index: Path) -> bool:
+    """Whether `make book` left a build newer than every page's source and the book's
+    settings: an older one would check what the book was, not what it is (the small
+    book is built then)."""
+    if not index.exists():
+        return False
+    sources = [ROOT / "_config.yml", ROOT / "_toc.yml"]
+    sources += list((ROOT / "notebooks").glob("*.ipynb"))
+    sources += list((ROOT / "book").glob("*.md"))
+    return index.stat().st_mtime >= max(f.stat().st_mtime for f in sources)
+
+
 class Book:
-    """The HTML book to check: `make book`'s _build/html,
-    or a small one built in the background."""
+    """The HTML book to check: `make book`'s _build/html when it is newer than its
+    sources, else a small one built in the background."""
 
     def __init__(self, tmp: Path):
         full = ROOT / "_build" / "html"
         self.proc = None
         self.log = None
-        if (full / "index.html").exists():
+        if _built_after_its_sources(full / "index.html"):
             import yaml
 
             toc = yaml.safe_load((ROOT / "_toc.yml").read_text())

@@ -304,9 +304,12 @@ def test_object_motion_error_lists_every_object_task():
 
 
 def test_minibatch_errors_match_the_trainers_intrinsic_reward():
+    import copy
+
     tr = _push_trainer(sicm_input="raw")
     tr.train_cycle()
     before = [p.detach().clone() for p in tr.curiosity.parameters()]
+    rng_state = copy.deepcopy(tr.rng.bit_generator.state)
     out = D.minibatch_errors(tr, batches=3)
     assert all(
         torch.equal(a, b) for a, b in zip(before, tr.curiosity.parameters())
@@ -316,6 +319,19 @@ def test_minibatch_errors_match_the_trainers_intrinsic_reward():
         out["err"].shape == out["successful"].shape == (n,) and out["eta"] == tr.cfg.eta
     )
     assert out["successful"].dtype == bool and (out["err"] >= 0).all()
+    # the first minibatch again, through the trainer's own reward step, with eta out of
+    # the way (the tiny model's errors all exceed 0.8): its r_i (Eq. 4) is err row for
+    # row, and the success column is the buffer's
+    tr.rng.bit_generator.state = rng_state
+    b = tr.sample_batch()
+    B = len(b["ep"])
+    np.testing.assert_array_equal(out["successful"][:B], tr.buffer.success[b["ep"]])
+    seen = {}
+    tr.cfg.eta = 1e9
+    tr.selector.offer = lambda batch, r_int, buf: seen.setdefault("r", r_int.copy())
+    tr.rewards(b, tr.batch_tensors(b))
+    np.testing.assert_allclose(out["err"][:B], seen["r"], rtol=1e-5)
+    assert np.ptp(seen["r"]) > 0  # distinct rows, compared one by one
 
 
 @pytest.mark.parametrize("sicm_input", ["normalised", "raw"])

@@ -5,7 +5,6 @@ the new episodes."""
 
 from __future__ import annotations
 
-import csv
 import json
 
 import numpy as np
@@ -17,14 +16,7 @@ from acder_lite.io import CheckpointError, load_torch
 from acder_lite.sweep import cell_state
 from acder_lite.trainer import Trainer
 
-from conftest import tiny_config
-
-
-def rows_of(path):
-    with open(path) as f:
-        return [
-            {k: v for k, v in r.items() if k != "wall_s"} for r in csv.DictReader(f)
-        ]
+from conftest import rows_of, tiny_config
 
 
 def carried(part):

@@ -108,22 +108,47 @@ def _xavier_bound(layer):
     return math.sqrt(6.0 / (layer.in_features + layer.out_features))
 
 
+def _uniform_on(w, bound) -> bool:
+    """Weights drawn uniformly on [-bound, bound]: within it, reaching close to it, with
+    the uniform's variance bound^2 / 3 (the three together tell Xavier's bound from
+    torch's 1/sqrt(fan_in) on every layer shape here)."""
+    w = w.detach()
+    return (
+        float(w.abs().max()) <= bound
+        and float(w.abs().max()) > 0.95 * bound
+        and float(w.std()) == pytest.approx(bound / math.sqrt(3), rel=0.1)
+    )
+
+
+def _is_xavier(layer) -> bool:
+    return _uniform_on(layer.weight, _xavier_bound(layer)) and bool(
+        (layer.bias == 0).all()
+    )
+
+
+def _is_torch_default(layer) -> bool:
+    """nn.Linear's own init: Kaiming-uniform weights and uniform biases, both on
+    1/sqrt(fan_in)."""
+    bound = 1 / math.sqrt(layer.in_features)
+    return (
+        _uniform_on(layer.weight, bound)
+        and float(layer.bias.detach().abs().max()) <= bound
+        and bool((layer.bias != 0).any())
+    )
+
+
 def test_mlp_xavier_uniform_weights_and_zero_biases():
     torch.manual_seed(0)
-    for layer in _linears(mlp([31, 256, 256, 256, 4])):
-        w, bound = layer.weight.detach(), _xavier_bound(layer)
-        assert float(w.abs().max()) <= bound
-        assert float(w.abs().max()) > 0.95 * bound  # uniform on the whole range ...
-        assert float(w.std()) == pytest.approx(
-            bound / math.sqrt(3), rel=0.1
-        )  # ... of variance b^2/3
-        assert bool((layer.bias == 0).all())
+    layers = _linears(mlp([31, 256, 256, 256, 4]))
+    assert len(layers) == 4
+    for layer in layers:
+        assert _is_xavier(layer) and not _is_torch_default(layer)
 
 
 def test_torch_init_differs():
     torch.manual_seed(0)
     layers = _linears(mlp([31, 256, 256, 256, 4], init="torch"))
-    assert all(bool((layer.bias != 0).any()) for layer in layers)
+    assert all(_is_torch_default(layer) and not _is_xavier(layer) for layer in layers)
     # Kaiming-uniform's bound 1/sqrt(31) = 0.18 exceeds Xavier's sqrt(6/287) = 0.145
     first = layers[0]
     assert float(first.weight.detach().abs().max()) > _xavier_bound(first)
@@ -134,19 +159,11 @@ def test_every_network_of_a_run_gets_its_init(init):
     tr = Trainer(tiny_config(method="acder", env="FetchPush-v4", init=init))
     nets = networks(tr)
     layers = [layer for net in nets for layer in _linears(net)]
-    zero_bias = [bool((layer.bias == 0).all()) for layer in layers]
-    in_bound = [
-        float(layer.weight.detach().abs().max()) <= _xavier_bound(layer)
-        for layer in layers
-    ]
-    if init == "xavier":
-        assert all(zero_bias) and all(in_bound)
-    else:
-        assert not any(zero_bias)
+    assert len(layers) >= 2 * len(nets)
+    check = _is_xavier if init == "xavier" else _is_torch_default
+    assert all(check(layer) for layer in layers)
     icm = Trainer(tiny_config(method="her-icm", init=init)).curiosity
-    assert all(
-        bool((layer.bias == 0).all()) == (init == "xavier") for layer in _linears(icm)
-    )
+    assert _linears(icm) and all(check(layer) for layer in _linears(icm))
 
 
 # ---- the critic's target clip (Baselines' ddpg.py clip_pos_returns: [-1/(1-gamma), 0])

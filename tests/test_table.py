@@ -448,6 +448,31 @@ def test_readings_decisions_chain_the_two_rules():
     assert d["decided"] == (RE.choose(raw, goal, "sicm-raw")[0] is not None)
 
 
+def test_readings_decisions_when_normalised_crosses_first():
+    """(a) separated from (b) and earlier: (a) wins the first rule and meets (c) in the
+    second, (a)'s name the fallback there. Crossings by hand: (a) 1 + 0.95 = 1.95
+    epochs = 780 episodes, (b) 3 + 0.45 / 0.5 = 3.9 = 1,560, (c) 3.95 = 1,580."""
+    norm = cell("sicm-normalised", [0.0, 1.0, 1.0, 1.0])
+    raw = cell("sicm-raw", [0.0, 0.0, 0.5, 1.0])
+    goal = cell("sicm-raw-episode-goal", [0.0, 0.0, 0.0, 1.0])
+    d = T.readings_decisions(norm, raw, goal)
+    assert d["choice"].startswith(
+        "The mean curves cross at 780 episodes (ACDER, S-ICM on normalised (o, g)) "
+        "and 1,560 (ACDER, S-ICM on raw (o, g));"
+    )
+    assert d["choice"].endswith(
+        "the runs separate them, and ACDER, S-ICM on normalised (o, g) crosses first."
+    )
+    assert d["goal_choice"].startswith(
+        "The mean curves cross at 780 episodes (ACDER, S-ICM on normalised (o, g)) "
+        "and 1,580 (ACDER, S-ICM on raw (o, g), restarts keep the episode's goal);"
+    )
+    assert d["goal_choice"].endswith(
+        "and ACDER, S-ICM on normalised (o, g) crosses first."
+    )
+    assert d["decided"] is True
+
+
 def test_choice_sentence_once_the_challenger_cannot_cross_first():
     raw = push_cell("sicm-raw", 14.8, 9.7, 16.75)
     raw.done, raw.planned = 3, 3

@@ -1,4 +1,3 @@
-import csv
 import os
 
 import numpy as np
@@ -8,16 +7,7 @@ from acder_lite.config import METHODS
 from acder_lite.rewards import shaped_reward
 from acder_lite.trainer import Trainer, target_clip
 
-from conftest import tiny_config
-
-WALL = {"wall_s"}
-
-
-def rows_of(path):
-    with open(path) as f:
-        return [
-            {k: v for k, v in r.items() if k not in WALL} for r in csv.DictReader(f)
-        ]
+from conftest import rows_of, tiny_config
 
 
 def test_same_seed_same_progress(tmp_path):

@@ -40,11 +40,14 @@ def _material_color(html: str, path: str) -> int:
     return cmd["object"]["materials"][0]["color"]
 
 
-def test_push_scene_keeps_its_one_target():
-    env = E.make_env("FetchPush-v4", seed=0)
-    rec = viz.record_rollout(env, policy=None, steps=2, seed=0, every=2)
-    assert rec.goal.shape == (2, 3)
+def test_target_nodes_name_one_marker_per_object():
+    """One 3-D goal keeps the node `target` of every earlier scene (the saved Push scene
+    itself: `test_scene_from_a_short_rollout`); a 6-D goal gives one per block."""
     assert viz.target_nodes(3) == [("target", "target0", slice(0, 3))]
+    assert viz.target_nodes(6) == [
+        ("target0", "target0", slice(0, 3)),
+        ("target1", "target1", slice(3, 6)),
+    ]
 
 
 def test_multistep_scene_draws_both_blocks_and_both_targets(tmp_path):
@@ -147,9 +150,18 @@ def test_plot_block_paths_draws_each_block_and_target_in_its_colour():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from acder_lite import multistep as M
     from acder_lite.plots import plot_block_paths
     from acder_lite.rollout import run_episodes
 
+    def rgb(text):
+        return [float(x) for x in text.split()[:3]]
+
+    # the colours as the XML gives them: block 0 has the default geom rgba, so its
+    # material block_mat's 0.2 grey applies; the fetch target site is red; the second
+    # block and target are multistep's own
+    blocks = [[0.2, 0.2, 0.2], rgb(M.OBJECT1_RGBA)]
+    targets = [[1.0, 0.0, 0.0], rgb(M.TARGET1_RGBA)]
     for env_id, k in (("FetchPush-v4", 1), ("FetchPushMultiStep-v0", 2)):
         env = E.make_env(env_id, seed=0)
         rng = np.random.default_rng(0)
@@ -159,9 +171,16 @@ def test_plot_block_paths_draws_each_block_and_target_in_its_colour():
         plot_block_paths(ax, ep, env)
         lines = ax.get_lines()
         assert len(lines) == 1 + 2 * k and len(ax.patches) == k
-        block = viz.geom_rgba(env.model, env.model.geom(f"object{k - 1}").id)[:3]
-        assert np.allclose(matplotlib.colors.to_rgb(lines[-2].get_color()), block)
-        assert np.allclose(lines[-1].get_xydata()[0], ep["g"][0, 3 * k - 3 : 3 * k - 1])
+        for j in range(k):
+            block, target = lines[1 + 2 * j], lines[2 + 2 * j]
+            to_rgb = matplotlib.colors.to_rgb
+            assert np.allclose(to_rgb(block.get_color()), blocks[j]), (env_id, j)
+            assert np.allclose(to_rgb(target.get_color()), targets[j]), (env_id, j)
+            assert np.allclose(ax.patches[j].get_edgecolor()[:3], targets[j])
+            np.testing.assert_allclose(
+                block.get_xydata(), ep["ag"][:, 3 * j : 3 * j + 2]
+            )
+            assert np.allclose(target.get_xydata()[0], ep["g"][0, 3 * j : 3 * j + 2])
         plt.close(fig)
         env.close()
 
