@@ -147,11 +147,17 @@ def interval_text(c: CellStat) -> str:
         return "–"
     if c.n == 1:
         return "– (one seed)"
-    lo, hi = (
-        episodes(c.paper_units(c.low)),
-        episodes(c.paper_units(c.high)),
-    )  # Table I's unit
-    return f"{lo} – {hi} ({c.share_crossing:.0%})"
+
+    def bound(x: float) -> str:
+        # a resample that has not crossed yet may still cross while a seed trains, and
+        # one whose seed's curve was cut was never given the budget
+        if math.isinf(x) and c.unfinished:
+            return "not yet"
+        if math.isinf(x) and c.cut:
+            return "cut short"
+        return episodes(c.paper_units(x))  # Table I's unit
+
+    return f"{bound(c.low)} – {bound(c.high)} ({c.share_crossing:.0%})"
 
 
 def per_seed_text(c: CellStat) -> str:
@@ -246,7 +252,9 @@ CAPTION = (
     "earlier crossing, the earliest one it can still make ('not before'). Beside it a "
     "95% bootstrap interval over seeds (resampled with replacement; the share of "
     "resamples whose mean curve crosses; 'beyond budget' where more than 2.5% never "
-    "cross) and each seed's own first crossing."
+    "cross, 'not yet' where they may still, a seed being in training, 'cut short' "
+    "where a seed's curve was cut before its budget) and each seed's own first "
+    "crossing."
 )
 
 

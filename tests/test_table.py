@@ -500,6 +500,20 @@ def test_an_unfinished_mean_curve_says_how_early_it_can_still_cross():
     assert T.mean_text(c) == "not yet (evaluated to epoch 4)"
 
 
+def test_interval_bound_that_may_still_cross_says_not_yet():
+    """An infinite bound is 'beyond budget' only for a cell whose seeds all had their
+    budget; while a seed trains it is 'not yet', after a cut 'cut short'."""
+    c = push_cell("her-per", None, 10.0, math.inf)
+    c.boot, c.n, c.share_crossing = [10.0, math.inf], 3, 0.5
+    assert T.interval_text(c) == "4,000 – beyond budget (50%)"
+    c.unfinished = 1
+    assert T.interval_text(c) == "4,000 – not yet (50%)"
+    c.low = math.inf
+    assert T.interval_text(c) == "not yet – not yet (50%)"
+    c.unfinished, c.cut = 0, 1
+    assert T.interval_text(c) == "cut short – cut short (50%)"
+
+
 def test_finished_run_skips_a_run_still_training(tmp_path):
     """policy.pt is rewritten at every epoch end: only a folder with done.json does."""
     from acder_lite.runs import finished_run
