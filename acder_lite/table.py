@@ -28,6 +28,7 @@ from .report import (
     RatioStat,
     choose,
     grid_cells,
+    column_tail,
     ratios,
     seed_level,
     summarize,
@@ -416,6 +417,26 @@ def grid_state(cells: list[CellStat]) -> str:
     if held:
         text += f", and {held} cells are on hold until the readings below are in"
     return text + "."
+
+
+def bonus_sentence(
+    runs: list[dict], envs, names=("her-icm", "acder"), last: int = 5
+) -> str:
+    """How large the curiosity bonus is by the end, per task: the mean r_i of the
+    minibatches (progress.csv's r_int_mean) over each seed's `last` evaluations,
+    averaged over seeds (`report.column_tail`), beside the clip eta of Eq. 4. A value
+    near eta says most transitions get the clip: nearly a constant added to every
+    reward, not a ranking of states by novelty."""
+    from .config import TASK_PRESETS
+
+    parts = []
+    for env in envs:
+        vals = [(n, column_tail(runs, env, n, "r_int_mean", last)) for n in names]
+        vals = [f"{label(n)} {v:.2f}" for n, v in vals if v is not None]
+        if vals:
+            eta = TASK_PRESETS[env]["eta"]
+            parts.append(f"on {task_label(env)} (clip η = {eta}): {', '.join(vals)}")
+    return sentence(parts) or "No curiosity method has an evaluation yet."
 
 
 def order_sentence(cells: list[CellStat]) -> str:

@@ -514,6 +514,27 @@ def test_interval_bound_that_may_still_cross_says_not_yet():
     assert T.interval_text(c) == "cut short – cut short (50%)"
 
 
+def test_bonus_sentence_averages_each_seeds_last_evaluations():
+    """Seed means over the last 2 rows, then over seeds: ICM (0.6 + 0.8) / 2 = 0.7 and
+    (0.7 + 0.7) / 2 = 0.7 -> 0.70; ACDER 0.1 and 0.2 -> 0.15. A method without the
+    column (her) is left out, and so is a task without curiosity runs."""
+
+    def run(name, seed, values):
+        rows = [dict(epoch=float(i), r_int_mean=v) for i, v in enumerate(values, 1)]
+        return dict(env=P, name=name, seed=seed, rows=rows)
+
+    runs = [
+        run("her-icm", 0, [0.1, 0.6, 0.8]),
+        run("her-icm", 1, [0.0, 0.7, 0.7]),
+        run("acder", 0, [0.5, 0.1, 0.1]),
+        run("acder", 1, [0.9, 0.2, 0.2]),
+        dict(env=P, name="her", seed=0, rows=[dict(epoch=1.0)]),
+    ]
+    text = T.bonus_sentence(runs, ["FetchReach-v4", P], last=2)
+    assert text == "On Push (clip η = 0.8): DDPG+HER+ICM 0.70, DDPG+ACDER 0.15."
+    assert T.bonus_sentence([], [P]) == "No curiosity method has an evaluation yet."
+
+
 def test_finished_run_skips_a_run_still_training(tmp_path):
     """policy.pt is rewritten at every epoch end: only a folder with done.json does."""
     from acder_lite.runs import finished_run
