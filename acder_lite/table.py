@@ -27,12 +27,13 @@ from .report import (
     CellStat,
     RatioStat,
     choose,
-    grid_cells,
     column_tail,
+    grid_cells,
     ratios,
     seed_level,
     summarize,
 )
+from .config import TASK_PRESETS
 from .runs import load_runs, planned_cells
 
 METHOD_LABELS = {
@@ -427,8 +428,6 @@ def bonus_sentence(
     averaged over seeds (`report.column_tail`), beside the clip eta of Eq. 4. A value
     near eta says most transitions get the clip: nearly a constant added to every
     reward, not a ranking of states by novelty."""
-    from .config import TASK_PRESETS
-
     parts = []
     for env in envs:
         vals = [(n, column_tail(runs, env, n, "r_int_mean", last)) for n in names]
