@@ -21,6 +21,7 @@ import math
 import sys
 from pathlib import Path
 
+from .config import TASK_PRESETS
 from .report import (
     ABLATIONS,
     PAPER_EPISODES_PER_EPOCH,
@@ -33,7 +34,6 @@ from .report import (
     seed_level,
     summarize,
 )
-from .config import TASK_PRESETS
 from .runs import load_runs, planned_cells
 
 METHOD_LABELS = {
