@@ -4,7 +4,9 @@ resolution, the error without CUDA, and the device as a parameter.
 This machine has no GPU, so what can be checked here is the plumbing: the choice and why
 are recorded, `cpu` is the default's very computation, every tensor an update touches is
 on the trainer's device (a dispatch mode sees each aten call), and a checkpoint resumes
-onto it.
+onto it. The limit of that: on a CPU-only machine every tensor is on the CPU anyway, so
+a missing `.to(device)` cannot show up here; the device checks bite only where torch
+sees a GPU (`--device cuda`), and `bench --device cuda` there is the end-to-end check.
 """
 
 import json
@@ -18,8 +20,7 @@ from acder_lite.config import Config, ConfigError
 from acder_lite.io import load_torch
 from acder_lite.trainer import Trainer
 
-from conftest import networks, tiny_config
-from test_trainer import rows_of
+from conftest import networks, rows_of, tiny_config
 
 TINY = (
     "--env FetchPush-v4 --method acder --seed 0 --epochs 2 --cycles 2 "
