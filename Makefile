@@ -23,7 +23,7 @@ test: setup lint
 	  ACDER_FAST=1 $(PY) -m pytest -n $(JOBS) -q --nbmake --nbmake-timeout=180 notebooks; fi
 
 # Code lines fit the book's column (88, pyproject.toml): `ruff format` to fix what this finds.
-LINTED := acder_lite tests experiments notebooks
+LINTED := acder_lite tests experiments notebooks jupyter-config
 lint: setup
 	.venv/bin/ruff format --check --no-cache $(LINTED)
 	.venv/bin/ruff check --no-cache $(LINTED)

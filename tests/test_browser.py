@@ -304,7 +304,7 @@ class Lab:
         # port 0: the server takes a port the OS gives it and names it in its info file
         # (a port picked here and passed on could be taken by another test in between)
         self.port, self.url, self.token = None, None, secrets.token_hex(24)
-        info = tmp / "runtime"
+        info = self.runtime = tmp / "runtime"
         for d in ("config", "runtime", "data", "settings", "workspaces", "ipython"):
             (tmp / d).mkdir(exist_ok=True)
         env = dict(
@@ -607,9 +607,17 @@ def test_live_chapter_in_jupyterlab(browser, book, tmp_path):
             )
 
         # while all of it runs: the server, its kernels and the Meshcat server listen
-        # on loopback only
+        # on loopback only, and the kernels talk to the server over Unix sockets with
+        # short absolute names (jupyter-config/ipc_kernels.py)
         every = lab.sockets()
         assert sum(len(s) for s in every.values()) > len(socks), every
+        # (ipykernel's own IOPub pipe still binds a random 127.0.0.1 port, atomically)
+        conns = [json.loads(f.read_text()) for f in lab.runtime.glob("kernel-*.json")]
+        assert len(conns) >= 2, f"{len(conns)} kernel connection files"
+        assert all(
+            k["transport"] == "ipc" and os.path.isabs(k["ip"]) and len(k["ip"]) < 100
+            for k in conns
+        ), conns
         wide = {
             pid: s
             for pid, s in every.items()

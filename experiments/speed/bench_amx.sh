@@ -4,6 +4,8 @@
 # precision that is faster than float32 here (issue 17's target), and by how much?
 # The grid's two niced cells ran beside every line (the bench itself is not niced).
 # Usage: bash experiments/speed/bench_amx.sh > experiments/speed/bench_amx.txt
+# The same script, later that day on the second such machine (an AMD EPYC with AVX512-BF16
+# and no AMX), wrote bench_amd_bf16.txt.
 PY=${PY:-.venv/bin/python}
 B="bench --env FetchPush-v4 --workers 4 --cycles 2"
 grep -o -w -E "avx512_bf16|amx_bf16" /proc/cpuinfo | sort -u | tr '\n' ' '; echo
