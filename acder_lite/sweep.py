@@ -21,9 +21,10 @@ again whenever a cell ends, so a hold deleted from the file takes effect without
 restart.
 
 Without `--address` the sweep starts a local Ray of its own (nothing to set up) and
-stops it at the end; with `--address auto` or `--address ray://HOST:PORT` it joins a
-running cluster, where the results folder must be shared storage that every node sees at
-the same path. Trap: a local Ray cannot be kept on the loopback interface: Ray 2.60
+stops it at the end; with `--address auto` or `--address HOST:PORT`, run on a node of a
+running cluster, it joins that cluster, where the results folder must be shared storage
+that every node sees at the same path (`acder_lite.cluster`). Trap: a local Ray cannot
+be kept on the loopback interface: Ray 2.60
 turns 127.0.0.1 into the node's own address (`services.resolve_ip_for_localhost`) and
 its gRPC servers listen on every interface; what guards them is Ray's token
 authentication, on by default.
@@ -36,13 +37,12 @@ import contextlib
 import itertools
 import os
 import shlex
-import socket
 import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import grid_time, packed, same_as
+from . import cluster, grid_time, packed, same_as
 from .config import ENV_IDS, METHODS, Config, ConfigError
 
 EXIT_INTERRUPTED = 130
@@ -51,13 +51,6 @@ EXIT_INTERRUPTED = 130
 MAX_RETRIES = 3
 """Ray's retries of a cell whose worker process died
 (each retry resumes from the checkpoint)."""
-
-START_ATTEMPTS = 3
-"""How often the sweep tries to start its local Ray (each try has Ray's own 30 s)."""
-
-CONNECT_TIMEOUT_S = 5.0
-"""How long `--address HOST:PORT` may take to answer before the sweep gives
-up (exit 2)."""
 
 LOCK = ".sweep.lock"
 """A run folder's lock file: held (flock) by the task training into it, so two sweeps
@@ -363,8 +356,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--address",
         default=None,
-        help="a running Ray cluster: 'auto' or ray://HOST:PORT (default: start a local "
-        "Ray for this sweep)",
+        help="join a running Ray cluster from one of its nodes: 'auto' or HOST:PORT "
+        "(the head's GCS port; with token authentication, Ray's default, also "
+        "RAY_AUTH_MODE=token); default: start a local Ray for this sweep",
     )
     parser.add_argument(
         "--jobs",
@@ -685,67 +679,6 @@ def _say(msg: str) -> None:
     print(f"sweep: {msg}", flush=True)
 
 
-def _check_address(address: str) -> str | None:
-    """None if a Ray cluster answers at `address` ('auto' is left to Ray),
-    else one line."""
-    if address == "auto":
-        return None
-    hostport = address.split("://", 1)[-1]
-    host, _, port = hostport.rpartition(":")
-    if not host or not port.isdigit():
-        return f"--address={address!r} is not allowed: 'auto' or ray://HOST:PORT"
-    try:
-        socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT_S).close()
-    except OSError as e:
-        return (
-            f"--address={address!r} does not answer within "
-            f"{CONNECT_TIMEOUT_S:g} s ({e.strerror or e})"
-        )
-    return None
-
-
-def _connect(args):
-    """Start a local Ray (`--jobs` x `--threads` CPUs), or join `--address`."""
-    import ray
-
-    os.environ.setdefault("RAY_DEDUP_LOGS", "0")
-    quiet = dict(
-        include_dashboard=False,
-        log_to_driver=False,
-        configure_logging=True,
-        logging_level="ERROR",
-    )
-    # The package must be importable in the workers from any cwd
-    # (a test runs the sweep elsewhere).
-    root = str(Path(__file__).resolve().parent.parent)
-    runtime_env = {
-        "env_vars": {"PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    }
-    if args.address:
-        return ray.init(address=args.address, runtime_env=runtime_env, **quiet)
-    # address="local": always a Ray of our own (without it ray.init may join a cluster
-    # that `ray start` left running, or RAY_ADDRESS names). Trap: Ray gives its raylet a
-    # fixed 30 s to register (node.py), which a machine busy with training can
-    # miss: try again.
-    for attempt in range(1, START_ATTEMPTS + 1):
-        try:
-            return ray.init(
-                address="local",
-                num_cpus=args.jobs * args.threads,
-                object_store_memory=100 * 2**20,
-                runtime_env=runtime_env,
-                **quiet,
-            )
-        except Exception as e:  # Ray raises a bare Exception for this
-            if "timed out during startup" not in str(e) or attempt == START_ATTEMPTS:
-                raise
-            ray.shutdown()
-            _say(
-                f"the local Ray did not start in time (attempt {attempt} of "
-                f"{START_ATTEMPTS}); trying again"
-            )
-
-
 def run(args) -> int:
     """Plan the grid and run it on Ray; 0 if every cell finished, 1 if one failed, 2 on
     bad input, 130 on Ctrl-C (every running cell keeps its last checkpoint)."""
@@ -787,7 +720,7 @@ def run(args) -> int:
         _say(grid_time.sentence(est, args.jobs))
         return 0
     if args.address:
-        problem = _check_address(args.address)
+        problem = cluster.check_address(args.address)
         if problem:
             return bad(problem)
     for c in cells:
@@ -810,18 +743,13 @@ def run(args) -> int:
     import ray
 
     try:
-        _connect(args)
-    except (ConnectionError, RuntimeError, ValueError) as e:
-        if not args.address:
-            raise
-        return bad(
-            f"--address={args.address!r}: no Ray cluster there "
-            f"({str(e).splitlines()[0][:160]})"
-        )
-    except Exception as e:  # the local Ray's start timed out START_ATTEMPTS times
+        cluster.connect(args.address, args.jobs * args.threads, say=_say)
+    except cluster.Refused as e:
+        return bad(str(e))
+    except Exception as e:  # e.g. the local Ray did not start in START_ATTEMPTS tries
+        what = f"joining {args.address!r}" if args.address else "starting the local Ray"
         print(
-            "error: sweep: the local Ray did not start: "
-            f"{str(e).splitlines()[0][:200]}",
+            f"error: sweep: {what} failed: {str(e).splitlines()[0][:200]}",
             file=sys.stderr,
         )
         return 1

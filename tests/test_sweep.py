@@ -5,6 +5,7 @@ import argparse
 import csv
 import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -214,7 +215,7 @@ def test_address_that_does_not_answer(tmp_path, capsys):
                 *REACH_HER_0,
                 str(tmp_path / "r"),
                 "--address",
-                f"ray://127.0.0.1:{port}",
+                f"127.0.0.1:{port}",
             ]
         )
         t0 = time.monotonic()
@@ -237,7 +238,132 @@ def test_address_that_does_not_answer(tmp_path, capsys):
         )
         == 2
     )
-    assert "'auto' or ray://HOST:PORT" in capsys.readouterr().err
+    assert "'auto' or HOST:PORT" in capsys.readouterr().err
+    # Ray Client: refused at once, naming what to do instead
+    args = parse([*REACH_HER_0, str(tmp_path / "r"), "--address", "ray://h:10001"])
+    assert S.run(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "from a node of the cluster" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+class RayHead:
+    """`ray start --head --block` on a free port with token authentication (a token of
+    its own, in the environment), in a temp folder of its own; `stop` ends it and
+    everything it started (never `ray stop`: that would end every Ray on the
+    machine)."""
+
+    def __init__(self, tmp: Path):
+        import secrets
+        import tempfile
+
+        self.token = secrets.token_hex(32)
+        # Ray's socket paths must stay short: not under pytest's deep tmp_path
+        self.dir = Path(tempfile.mkdtemp(prefix="acder-ray-"))
+        self.log = tmp / "head.log"
+        for _ in range(3):  # a free port could be taken before Ray binds it
+            with socket.socket() as s:
+                s.bind(("127.0.0.1", 0))
+                self.port = s.getsockname()[1]
+            self.proc = subprocess.Popen(
+                [
+                    str(Path(sys.executable).parent / "ray"),
+                    "start",
+                    "--head",
+                    "--block",
+                    f"--port={self.port}",
+                    "--num-cpus=2",
+                    "--include-dashboard=false",
+                    "--disable-usage-stats",
+                    f"--temp-dir={self.dir}",
+                ],
+                env=self.env(),
+                stdout=open(self.log, "wb"),
+                stderr=subprocess.STDOUT,
+            )
+            t0 = time.monotonic()
+            while self.proc.poll() is None and time.monotonic() - t0 < 90:
+                if "Ray runtime started" in self.log.read_text(errors="replace"):
+                    return
+                time.sleep(0.5)
+            self.stop()
+        pytest.fail(f"ray start failed:\n{self.log.read_text()[-2000:]}")
+
+    def env(self, token: bool = True) -> dict:
+        env = {
+            k: v
+            for k, v in os.environ.items()
+            if not k.startswith(("RAY_AUTH", "RAY_ADDRESS"))
+        }
+        env["PYTHONPATH"] = str(ROOT)
+        if token:
+            env.update(RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=self.token)
+        return env
+
+    def stop(self) -> None:
+        import psutil
+
+        try:
+            procs = [psutil.Process(self.proc.pid)]
+            procs += procs[0].children(recursive=True)
+        except psutil.Error:
+            procs = []
+        self.proc.terminate()
+        try:
+            self.proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+        for p in procs:
+            try:
+                p.kill()
+            except psutil.Error:
+                pass
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+@pytest.mark.xdist_group("ray")
+def test_sweep_joins_a_running_cluster(tmp_path):
+    """A cluster started with `ray start --head` (token authentication on): a sweep
+    with `--address HOST:PORT` and no token is refused in one line saying what to set;
+    with the token it trains its cell there and leaves the cluster running."""
+    head = RayHead(tmp_path)
+    try:
+        cmd = [
+            *_sweep_cmd(tmp_path / "results", [0], 1),
+            "--address",
+            f"127.0.0.1:{head.port}",
+        ]
+        refused = subprocess.run(
+            cmd,
+            cwd=tmp_path,
+            env=head.env(token=False),
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert refused.returncode == 2, refused.stdout + refused.stderr
+        # Ray's C++ client printed a retry a second: held, not shown
+        assert refused.stderr.count("\n") == 1, refused.stderr
+        assert "set RAY_AUTH_MODE=token" in refused.stderr
+        assert not (tmp_path / "results").exists()
+
+        joined = subprocess.run(
+            cmd,
+            cwd=tmp_path,
+            env=head.env(),
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert joined.returncode == 0, joined.stdout + joined.stderr
+        assert "finish FetchReach-v4/her/seed0: done" in joined.stdout
+        assert "local Ray" not in joined.stdout  # it joined, it did not start one
+        run = tmp_path / "results" / "FetchReach-v4" / "her" / "seed0"
+        assert (run / "done.json").exists() and len(_rows(run)) == 1
+        assert head.proc.poll() is None, "the sweep ended the cluster it joined"
+        socket.create_connection(("127.0.0.1", head.port), timeout=5).close()
+    finally:
+        head.stop()
 
 
 def test_plan_and_grid_options_exclude_each_other(tmp_path, capsys):
