@@ -67,7 +67,7 @@ def epochs_done(folder) -> float:
 
 
 def estimate(cells, options: dict | None = None) -> dict:
-    """The estimate for a sweep's cells (`sweep.Cell`s with their actions set): hours
+    """The estimate for a sweep's cells (`plan.Cell`s with their actions set): hours
     to budget and as finished, the cells counted, the cells of untimed tasks and those
     on hold. `options`: the sweep's own Config fields (`--epochs`, ...), over each
     cell's."""

@@ -302,10 +302,10 @@ def how_ended(run: dict) -> str | None:
 def planned_cells(
     plan_path: str | Path, root: str | Path
 ) -> dict[tuple[str, str], dict]:
-    """Seeds a plan file (`sweep.read_plan`) plans per (env, name) for run folders under
-    `root`: {(env, name): {"seeds": n, "hold": reason or ''}}. Raises sweep.PlanError on
+    """Seeds a plan file (`plan.read_plan`) plans per (env, name) for run folders under
+    `root`: {(env, name): {"seeds": n, "hold": reason or ''}}. Raises plan.PlanError on
     a bad plan."""
-    from .sweep import read_plan
+    from .plan import read_plan
 
     root = Path(root).resolve()
     out: dict[tuple[str, str], dict] = {}

@@ -3,7 +3,7 @@
 The same config, the same code and the same CPU give the same numbers (the project's
 seeding rule), so training a cell whose config equals a finished run's, field for field,
 would spend hours to write that run's files again. A plan group with `same_as = "DIR"`
-(`sweep.read_plan`) says its cells are the runs `DIR/seed<k>`; the sweep compares each
+(`plan.read_plan`) says its cells are the runs `DIR/seed<k>`; the sweep compares each
 cell's resolved `Config` with the one the run recorded (`check`) and, when they agree,
 copies the run's files into the cell's folder (`copy_run`), with a `same_as` record in
 config.json naming where they came from. A config that differs is an error in the plan,

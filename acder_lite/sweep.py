@@ -2,8 +2,8 @@
 
 `python -m acder_lite sweep --envs FetchReach-v4 --methods her acder --seeds 0 1
 --results R` trains one cell per task into `R/<env>/<method>/seed<k>`; `sweep --plan
-results/plan.toml` runs the cells a plan file declares (`read_plan`): the same command
-every session.
+results/plan.toml` runs the cells a plan file declares (`acder_lite.plan.read_plan`):
+the same command every session.
 
 Each cell is one Ray task reserving `--threads` CPUs, so Ray packs as many runs as fit.
 The task decides when it starts what its folder needs: nothing (`done.json`),
@@ -34,16 +34,15 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import itertools
 import os
 import shlex
 import sys
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import cluster, grid_time, packed, same_as
-from .config import ENV_IDS, METHODS, Config, ConfigError
+from . import cluster, grid_time, same_as
+from .config import ENV_IDS, Config, ConfigError
+from .plan import Cell, PlanError, cell_state, check_names, plan, read_plan
 
 EXIT_INTERRUPTED = 130
 """Return code after Ctrl-C (128 + SIGINT), as a shell reports it."""
@@ -55,260 +54,6 @@ MAX_RETRIES = 3
 LOCK = ".sweep.lock"
 """A run folder's lock file: held (flock) by the task training into it, so two sweeps
 never write one folder; the kernel releases it when the process dies."""
-
-
-@dataclass
-class Cell:
-    """One (env, method, seed) of the grid and what the sweep will do with it."""
-
-    env: str
-    method: str
-    seed: int
-    out: Path
-    action: str
-    """'run' (fresh), 'resume' (checkpoint.pt or checkpoint.packed/, no done.json),
-    'copy' (a finished `same_as` run) or 'skip' (see `plan_cell`)."""
-    note: str = ""
-    """Why a cell is skipped, or what was found in its directory."""
-    options: dict = field(default_factory=dict)
-    """Config fields this cell sets (a plan group's `config`),
-    passed to train as --field value."""
-    hold: str = ""
-    """A plan group on hold: why (the cell is skipped with this note)."""
-    source: Path | None = None
-    """A finished run this cell is (a plan group's `same_as`): copied, not trained."""
-
-    @property
-    def name(self) -> str:
-        return "/".join(self.out.parts[-3:])
-
-
-def run_dir(results: str | Path, env: str, method: str, seed: int) -> Path:
-    """`results/<env>/<method>/seed<k>`, the layout DESIGN.md fixes."""
-    return Path(results) / env / method / f"seed{seed}"
-
-
-def cell_state(out: Path) -> str:
-    """What a run folder holds: 'done' (done.json), 'interrupted' (checkpoint.pt, or
-    a packed checkpoint carried over from another machine: `packed`), 'orphan'
-    (progress.csv, no checkpoint: committed results, or a run stopped before its first
-    epoch) or 'new'."""
-    if (out / "done.json").exists():
-        return "done"
-    if (out / "checkpoint.pt").exists() or packed.has_packed(out):
-        return "interrupted"
-    if (out / "progress.csv").exists():
-        return "orphan"
-    return "new"
-
-
-def plan_cell(cell: Cell) -> Cell:
-    """`cell` with its action (and note) set from its config and what its
-    folder holds: 'run', 'resume', 'skip', or 'copy' (a `same_as` run that has
-    finished and has this cell's config; PlanError if its config differs)."""
-    # the one check of names and values: Config's own (an EBP cell on Reach, a bad
-    # option)
-    try:
-        config = Config(
-            **dict(cell.options, env=cell.env, method=cell.method, seed=cell.seed)
-        ).resolve()
-    except (ConfigError, TypeError) as e:
-        cell.action, cell.note = "skip", str(e)
-        return cell
-    state = cell_state(cell.out)
-    if state == "done":
-        cell.action, cell.note = "skip", "already complete"
-    elif cell.hold:
-        cell.action, cell.note = "skip", f"on hold: {cell.hold}"
-    elif cell.source is not None:
-        verdict, why = same_as.check(config.to_dict(), cell.source)
-        if verdict == "differs":
-            raise PlanError(why)
-        cell.action, cell.note = (
-            ("copy", f"same as {cell.source}")
-            if verdict == "copy"
-            else ("skip", f"waits: {why}")
-        )
-    elif state == "interrupted":
-        cell.action, cell.note = (
-            "resume",
-            (
-                "checkpoint.pt found"
-                if (cell.out / "checkpoint.pt").exists()
-                else f"{packed.FOLDER} found: its buffer is re-simulated"
-            ),
-        )
-    elif state == "orphan":
-        cell.action, cell.note = (
-            "skip",
-            (
-                "progress.csv without checkpoint.pt or done.json: nothing to "
-                "resume; remove the folder to start over"
-            ),
-        )
-    else:
-        cell.action, cell.note = "run", ""
-    return cell
-
-
-def plan(envs, methods, seeds, results, options: dict | None = None) -> list[Cell]:
-    """The grid in env-major order, each cell with its action (`plan_cell`)."""
-    return [
-        plan_cell(
-            Cell(
-                env,
-                method,
-                seed,
-                run_dir(results, env, method, seed),
-                "",
-                options=dict(options or {}),
-            )
-        )
-        for env in envs
-        for method in methods
-        for seed in seeds
-    ]
-
-
-class PlanError(ValueError):
-    """A bad plan file or option; the message is one line naming what is wrong and
-    what is allowed."""
-
-
-_GROUP_KEYS = {
-    "envs",
-    "methods",
-    "seeds",
-    "root",
-    "name",
-    "config",
-    "queue",
-    "hold",
-    "note",
-    "same_as",
-}
-
-
-def read_plan(path: str | Path) -> list[Cell]:
-    """The cells of a plan file (TOML), in the order they are to start,
-    each with its action.
-
-    A plan is a list of `[[group]]` tables, each a grid: `envs`, `methods`, `seeds`
-    (lists); `root` (folder of <env>/<name>/seed<k>, relative to the plan's own folder;
-    default: that folder); `name` (the folder under <env>/, default the method; needs
-    one method); `config` (Config fields the runs set, e.g. {sicm_input = "raw"});
-    `queue` (default "grid"); `hold` (a reason: the group is planned but not started);
-    `same_as` (a folder of seed<k> runs, relative to the plan's folder, that these cells
-    are: each is copied once it has finished, if its config equals the cell's, see
-    `same_as.check`; needs one env and one method). A
-    `[defaults]` table gives every group its keys (a group's own win; `config` tables
-    merge). Cells of different queues alternate, so two queues share the cores; within a
-    queue they keep the file's order.
-    """
-    import tomllib
-
-    path = Path(path)
-    try:
-        with open(path, "rb") as f:
-            doc = tomllib.load(f)
-    except OSError as e:
-        raise PlanError(f"plan {str(path)!r} cannot be read: {e.strerror}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise PlanError(f"plan {str(path)!r} is not valid TOML: {e}") from None
-    groups = doc.get("group")
-    if not isinstance(groups, list) or not groups:
-        raise PlanError(
-            f"plan {str(path)!r} has no [[group]] tables; allowed: one or more"
-        )
-    defaults = doc.get("defaults", {})
-    if not isinstance(defaults, dict) or set(defaults) - _GROUP_KEYS:
-        raise PlanError(
-            f"plan {str(path)!r}: [defaults] may hold only: "
-            f"{', '.join(sorted(_GROUP_KEYS))}"
-        )
-    queues: dict[str, list[Cell]] = {}
-    for i, g in enumerate(groups, 1):
-        where = f"plan {str(path)!r}, group {i}"
-        g = {
-            **defaults,
-            **g,
-            "config": {**defaults.get("config", {}), **g.get("config", {})},
-        }
-        unknown = sorted(set(g) - _GROUP_KEYS)
-        if unknown:
-            raise PlanError(
-                f"{where}: unknown key {unknown[0]!r}; allowed: "
-                f"{', '.join(sorted(_GROUP_KEYS))}"
-            )
-        for key in ("envs", "methods", "seeds"):
-            if not isinstance(g.get(key), list) or not g[key]:
-                raise PlanError(f"{where}: {key} must be a non-empty list")
-        problem = _check_names(g["envs"], g["methods"], g["seeds"])
-        if problem:
-            raise PlanError(f"{where}: {problem}")
-        if "name" in g and len(g["methods"]) != 1:
-            raise PlanError(
-                f"{where}: name needs exactly one method, not {len(g['methods'])}"
-            )
-        if "same_as" in g and (len(g["envs"]), len(g["methods"])) != (1, 1):
-            raise PlanError(
-                f"{where}: same_as needs exactly one env and one method, not "
-                f"{len(g['envs'])} and {len(g['methods'])}"
-            )
-        options = g["config"]
-        try:
-            Config(**dict(options, env=g["envs"][0], method=g["methods"][0])).resolve()
-        except (ConfigError, TypeError) as e:
-            raise PlanError(f"{where}: config: {e}") from None
-        root = Path(os.path.normpath(path.parent / g.get("root", ".")))
-        for env, method, seed in itertools.product(g["envs"], g["methods"], g["seeds"]):
-            out = run_dir(root, env, g.get("name", method), seed)
-            cell = Cell(
-                env,
-                method,
-                seed,
-                out,
-                "",
-                options=dict(options),
-                hold=str(g.get("hold", "")),
-                source=None
-                if "same_as" not in g
-                else Path(os.path.normpath(path.parent / g["same_as"])) / f"seed{seed}",
-            )
-            try:
-                cell = plan_cell(cell)
-            except PlanError as e:
-                raise PlanError(f"{where}: {e}") from None
-            queues.setdefault(str(g.get("queue", "grid")), []).append(cell)
-    names = [c.name for q in queues.values() for c in q]
-    dup = next((n for n in names if names.count(n) > 1), None)
-    if dup:
-        raise PlanError(
-            f"plan {str(path)!r}: the run folder {dup!r} "
-            "is planned twice; allowed: once"
-        )
-    return [
-        c
-        for batch in itertools.zip_longest(*queues.values())
-        for c in batch
-        if c is not None
-    ]
-
-
-def _check_names(envs, methods, seeds) -> str | None:
-    """Unknown names and repeated seeds: what Config cannot see,
-    since it checks one cell."""
-    for env in envs:
-        if env not in ENV_IDS:
-            return f"unknown env {env!r}; allowed: {', '.join(ENV_IDS)}"
-    for method in methods:
-        if method not in METHODS:
-            return f"unknown method {method!r}; allowed: {', '.join(METHODS)}"
-    if any(not isinstance(s, int) or s < 0 for s in seeds):
-        return "seeds must be integers >= 0"
-    if len(set(seeds)) != len(seeds):
-        return "seeds must be distinct"
-    return None
 
 
 # ----- the options
@@ -330,8 +75,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--plan",
         default=None,
         metavar="FILE",
-        help="a plan file (TOML, see `read_plan`), e.g. results/plan.toml, instead of "
-        "--envs/--methods/--seeds",
+        help="a plan file (TOML, see `acder_lite.plan.read_plan`), e.g. "
+        "results/plan.toml, instead of --envs/--methods/--seeds",
     )
     parser.add_argument(
         "--envs",
@@ -420,7 +165,7 @@ def check_args(args) -> str | None:
     elif any(x is None for x in grid):
         return "--envs, --methods and --seeds are required (or --plan FILE)"
     else:
-        problem = _check_names(*grid)
+        problem = check_names(*grid)
         if problem:
             return problem
     if args.threads < 1:

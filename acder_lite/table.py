@@ -589,7 +589,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def read_planned(args, root: Path) -> dict:
     """The plan's seed counts, or {} (with one line on stderr if the plan
     cannot be read)."""
-    from .sweep import PlanError
+    from .plan import PlanError
 
     plan = Path(args.plan) if args.plan else root / "plan.toml"
     if not plan.exists():

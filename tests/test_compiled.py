@@ -92,6 +92,7 @@ def test_compiled_split_update_is_the_one_thread_compiled_update():
 def test_compile_update_option():
     from acder_lite.cli import build_parser
     from acder_lite import sweep as S
+    from acder_lite.plan import Cell, run_dir
 
     parse = build_parser().parse_args
     assert parse(["train", "--compile-update", "--out", "x"]).compile_update is True
@@ -102,11 +103,11 @@ def test_compile_update_option():
     with pytest.raises(ConfigError, match="compile_update='yes' is not allowed"):
         Config(compile_update="yes").validate()
     # a plan's `compile_update = true` reaches train as the flag
-    cell = S.Cell(
+    cell = Cell(
         env="FetchPush-v4",
         method="her",
         seed=0,
-        out=S.run_dir("r", "FetchPush-v4", "her", 0),
+        out=run_dir("r", "FetchPush-v4", "her", 0),
         action="run",
         options={"compile_update": True},
     )

@@ -6,7 +6,8 @@ import json
 
 import pytest
 
-from acder_lite import grid_time as G, sweep as S
+from acder_lite import grid_time as G
+from acder_lite.plan import plan, run_dir
 from acder_lite.cli import main
 from acder_lite.config import Config
 
@@ -14,7 +15,7 @@ P, PP = "FetchPush-v4", "FetchPickAndPlace-v4"
 
 
 def write_run(root, env, method, seed, epochs, wall, done=True, checkpoint=False):
-    d = S.run_dir(root, env, method, seed)
+    d = run_dir(root, env, method, seed)
     d.mkdir(parents=True)
     cfg = Config(env=env, method=method, seed=seed).resolve().to_dict()
     (d / "config.json").write_text(json.dumps(dict(config=cfg, command="")))
@@ -42,7 +43,7 @@ def grid(tmp_path):
 
 
 def test_the_estimate_adds_each_cells_epochs_left_at_its_timing(grid):
-    cells = S.plan([P, PP], ["her", "acder", "her-icm"], [0, 1, 2], grid)
+    cells = plan([P, PP], ["her", "acder", "her-icm"], [0, 1, 2], grid)
     est = G.estimate(cells)
     # her seed 2: 50 epochs at 125 s (budget), 15 (as finished); acder seed 1 from
     # epoch 10 and seed 2: at 200 s, to 50 or to 30; her-icm (no finished run of its
@@ -69,14 +70,14 @@ def test_dry_run_ends_with_the_estimate(grid, capsys):
 def test_the_sweeps_budget_copies_holds_and_unreadable_rows(grid, capsys):
     """--epochs over the cells' budget; a copied run (`same_as`) is not timed twice; a
     held cell is named, not counted; a finished run without wall_s is passed over."""
-    copy = S.run_dir(grid, P, "her", 3)
+    copy = run_dir(grid, P, "her", 3)
     copy.parent.mkdir(parents=True, exist_ok=True)
     write_run(grid, P, "her", 3, 40, 40 * 1000)  # 1000 s an epoch, if it were read
     whole = json.loads((copy / "config.json").read_text())
     whole["same_as"] = dict(run="../seed0")
     (copy / "config.json").write_text(json.dumps(whole))
     write_run(grid, P, "her", 4, 40, 0)  # wall_s 0: no timing
-    cells = S.plan([P], ["her"], [0, 1, 2, 3, 4, 5], grid)
+    cells = plan([P], ["her"], [0, 1, 2, 3, 4, 5], grid)
     cells[-1].action, cells[-1].hold = "skip", "waits"
     est = G.estimate(cells, {"epochs": 12})
     # her seed 2 alone: 12 epochs at 125 s, or 12 (its runs ended at 15 > 12)

@@ -13,7 +13,7 @@ import pytest
 from acder_lite import packed
 from acder_lite.cli import main
 from acder_lite.io import CheckpointError, load_torch
-from acder_lite.sweep import cell_state
+from acder_lite.plan import cell_state
 from acder_lite.trainer import Trainer
 
 from conftest import rows_of, tiny_config

@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from acder_lite import sweep as S
+from acder_lite.plan import plan, read_plan
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -50,7 +51,7 @@ def grid(tmp_path):
 
 
 def test_plan(grid):
-    cells = S.plan(["FetchReach-v4"], ["her"], [0, 1, 2, 3, 4], grid)
+    cells = plan(["FetchReach-v4"], ["her"], [0, 1, 2, 3, 4], grid)
     assert [(c.seed, c.action) for c in cells] == [
         (0, "skip"),
         (1, "resume"),
@@ -65,7 +66,7 @@ def test_plan(grid):
 def test_plan_ebp_needs_an_object(tmp_path):
     """Config's own check decides (one place):
     EBP on a task without an object is skipped."""
-    cells = S.plan(["FetchReach-v4", "FetchPush-v4"], ["her-ebp"], [0], tmp_path)
+    cells = plan(["FetchReach-v4", "FetchPush-v4"], ["her-ebp"], [0], tmp_path)
     assert [(c.env, c.action) for c in cells] == [
         ("FetchReach-v4", "skip"),
         ("FetchPush-v4", "run"),
@@ -114,7 +115,7 @@ def test_train_argv(grid):
     )
     assert S.check_args(args) is None
     assert args.threads == 1 and args.jobs == max(1, os.cpu_count() or 1)
-    fresh, resume = S.plan(["FetchReach-v4"], ["her"], [2, 1], grid)
+    fresh, resume = plan(["FetchReach-v4"], ["her"], [2, 1], grid)
     argv = S.train_argv(fresh, args, resume=False)
     assert (
         argv[:1] == ["train"]
@@ -423,7 +424,7 @@ def test_read_plan(tmp_path):
         "progress.csv",
         "checkpoint.pt",
     )
-    cells = S.read_plan(path)
+    cells = read_plan(path)
     assert [(c.name, c.action) for c in cells] == [
         ("FetchPush-v4/sicm-raw/seed0", "run"),
         ("FetchReach-v4/her/seed0", "resume"),
@@ -493,7 +494,7 @@ def test_bad_plan(tmp_path, capsys, text, msg):
 def test_the_committed_plan_reads():
     """results/plan.toml, the reproduction grid, is a valid plan:
     the issue's seed counts, float32."""
-    cells = S.read_plan(ROOT / "results" / "plan.toml")
+    cells = read_plan(ROOT / "results" / "plan.toml")
     count = lambda env, method: sum(
         c.env == env and c.out.parent.name == method and "results" in c.out.parts
         for c in cells
@@ -727,7 +728,7 @@ def _two_group_plan(path: Path, hold: str = "second") -> None:
 
 
 def test_queue_hands_out_the_plan_order_a_few_at_a_time(tmp_path):
-    cells = S.plan(["FetchReach-v4"], ["her"], [0, 1, 2], tmp_path)
+    cells = plan(["FetchReach-v4"], ["her"], [0, 1, 2], tmp_path)
     q = S.CellQueue(cells, 2)
     assert [c.seed for c in q.take(running=0)] == [0, 1]
     assert q.take(running=2) == []
@@ -742,8 +743,8 @@ def test_queue_reads_the_plan_again(tmp_path):
     twice; a plan broken meanwhile leaves the queue as it was."""
     path = tmp_path / "plan.toml"
     _two_group_plan(path, hold="second")
-    todo = [c for c in S.read_plan(path) if c.action != "skip"]
-    q = S.CellQueue(todo, 1, lambda: S.read_plan(path))
+    todo = [c for c in read_plan(path) if c.action != "skip"]
+    q = S.CellQueue(todo, 1, lambda: read_plan(path))
     assert [c.name for c in q.take(running=0)] == ["FetchReach-v4/her/seed0"]
     assert q.reread() == ""
     _two_group_plan(path, hold="")
@@ -852,7 +853,7 @@ def test_same_as_copies_a_finished_run_with_the_cells_config(tmp_path, capsys):
     touch(exp / "seed1", "config.json", "progress.csv", "checkpoint.pt")  # in flight
     plan_file = tmp_path / "results" / "plan.toml"
     plan_file.write_text(SAME_AS % "")
-    cells = S.read_plan(plan_file)
+    cells = read_plan(plan_file)
     assert [(c.name, c.action) for c in cells] == [
         ("FetchPush-v4/acder/seed0", "copy"),
         ("FetchPush-v4/acder/seed1", "skip"),
@@ -885,7 +886,7 @@ def test_same_as_copies_a_finished_run_with_the_cells_config(tmp_path, capsys):
     )
     assert "threads" in config["same_as"]["compared"]
     assert not list(run.glob(".*.tmp"))
-    assert S.read_plan(plan_file)[0].note == "already complete"
+    assert read_plan(plan_file)[0].note == "already complete"
 
 
 @pytest.mark.parametrize(
