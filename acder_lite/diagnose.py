@@ -427,8 +427,12 @@ def to_text(d: dict) -> str:
             f"curiosity: {c['rows']:,} rows; error median {q['0.5']:.3g}, 90% "
             f"{q['0.9']:.3g}, 99% {q['0.99']:.3g}; at the clip eta={c['eta']}: "
             f"{c['share_at_clip']:.2f} of all rows, "
-            f"{c['share_at_clip_successful']:.2f} of the {c['successful_rows']:,} "
-            "rows of successful episodes",
+            + (
+                f"{c['share_at_clip_successful']:.2f} of the {c['successful_rows']:,} "
+                "rows of successful episodes"
+                if c["successful_rows"]
+                else "no row of a successful episode drawn"
+            ),
             f"  largest errors ({c['share_of_error_in_top']:.0%} of the total): "
             + ", ".join(f"{n} {v:.3g}" for n, v in c["top_entries"]),
         ]
@@ -465,10 +469,14 @@ def to_text(d: dict) -> str:
 
 
 def _motion_text(m: dict) -> str:
+    path = (
+        f", path {m['path_over_distance']:.2f} x the distance (median)"
+        if m["moved_share"] > 0
+        else ""  # no episode moved it: no path to measure (path_over_distance is nan)
+    )
     return (
         f"speed {m['speed_mean']:.4f} m/s, spin {m['spin_mean']:.3f} rad/s (99%: "
-        f"{m['spin_p99']:.2f}); moved in {m['moved_share']:.2f} of the episodes, path "
-        f"{m['path_over_distance']:.2f} x the distance (median)"
+        f"{m['spin_p99']:.2f}); moved in {m['moved_share']:.2f} of the episodes{path}"
     )
 
 

@@ -122,6 +122,27 @@ def test_object_motion_of_a_still_policy_is_zero():
         m["speed_mean"] < 1e-3 and m["spin_mean"] < 1e-2
     )  # the object only settles on the table
     assert m["moved_share"] == 0.0 and np.isnan(m["path_over_distance"])
+    # the text says what was measured, and no "nan"
+    text = D.to_text(dict(run="r", method="her", env="FetchPush-v4", motion=m))
+    assert "moved in 0.00 of the episodes" in text and "nan" not in text
+
+
+def test_text_of_a_minibatch_without_successful_rows():
+    c = dict(
+        rows=2048,
+        eta=0.8,
+        error_quantiles={"0.5": 0.1, "0.9": 0.5, "0.99": 0.8},
+        share_at_clip=0.01,
+        successful_rows=0,
+        share_at_clip_successful=float("nan"),
+        share_of_error_in_top=0.5,
+        top_entries=[("grip_pos_x", 0.2)],
+    )
+    text = D.to_text(dict(run="r", method="acder", env="FetchPush-v4", curiosity=c))
+    assert "no row of a successful episode drawn" in text and "nan" not in text
+    c.update(successful_rows=512, share_at_clip_successful=0.25)
+    text = D.to_text(dict(run="r", method="acder", env="FetchPush-v4", curiosity=c))
+    assert "0.25 of the 512 rows of successful episodes" in text
 
 
 def test_object_motion_of_a_pushing_policy():
