@@ -1,5 +1,6 @@
 """Jupyter kernels that talk over Unix sockets, not TCP: `make lab`
-(jupyter_lab_config.py) and the notebooks under nbmake (notebooks/conftest.py) use them.
+(jupyter_lab_config.py), the notebooks under nbmake (notebooks/conftest.py) and `make
+book` (this module is also a Sphinx extension: _config.yml's local_extensions) use them.
 
 The trap this avoids: over TCP, jupyter_client picks a free port by binding and closing
 it, writes it to the kernel's connection file, and the kernel binds it a moment later.
@@ -17,6 +18,7 @@ $HOME). So each kernel gets a short absolute name of its own in the temp folder;
 jupyter_client removes the sockets when the kernel stops.
 """
 
+import functools
 import os
 import tempfile
 import uuid
@@ -47,3 +49,19 @@ class IPCServerKernelManager(ServerKernelManager):
 
     def _ip_default(self) -> str:
         return socket_prefix()
+
+
+def setup(app):
+    """Sphinx extension for `make book`: myst-nb executes each chapter through
+    jupyter_cache's `single_nb_execution`, which calls nbclient's `execute` by the
+    module-level name `executenb` and offers no option for the kernel manager; give it
+    this module's. (The pin of jupyter-cache in requirements.txt keeps the name true;
+    the assert makes a version without it fail loudly.)"""
+    import jupyter_cache.executors.utils as run
+    import nbclient
+
+    assert hasattr(run, "executenb"), "jupyter_cache no longer has executenb"
+    run.executenb = functools.partial(
+        nbclient.execute, kernel_manager_class=IPCKernelManager
+    )
+    return {"parallel_read_safe": True, "parallel_write_safe": True}

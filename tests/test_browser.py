@@ -234,6 +234,8 @@ class Book:
         # chapter 1 writes its scene to the repo's book/_static/scenes (viz.scene_path),
         # as `make book` does
         os.symlink(ROOT / "book" / "_static", src / "book" / "_static")
+        # _config.yml's local extension (the chapters' kernels over Unix sockets)
+        os.symlink(ROOT / "jupyter-config", src / "jupyter-config")
         for page in (SCENE_CHAPTER, TABLE_CHAPTER):
             shutil.copy(ROOT / f"{page}.ipynb", src / f"{page}.ipynb")
         _write_outputs_page(src / f"{OUTPUTS_PAGE}.ipynb")
@@ -769,6 +771,9 @@ def check_book(
 
 def test_built_book(browser, book, tmp_path):
     book.wait()
+    if book.built_here:  # its chapters' kernels talked over Unix sockets
+        log = book.log.read_text(errors="replace")
+        assert "Executed notebook" in log and "running over TCP" not in log, log[-3000:]
     bad = check_book(browser, book.html, book.pages, tmp_path / "screenshots")
     where = (
         "the small book built in " + str(book.html)
