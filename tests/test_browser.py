@@ -668,6 +668,12 @@ _PAGE_FACTS = """() => {
     scenes: Array.from(document.querySelectorAll('iframe'))
                .map(f => f.getAttribute('src') || '')
                .filter(s => s.includes('_static/scenes/')),
+    // code cells (and their printed outputs) that scroll sideways: their longest line
+    wide: Array.from(document.querySelectorAll(
+            'div.cell_input div.highlight pre, div.cell_output pre'))
+          .filter(p => p.offsetParent !== null && p.scrollWidth > p.clientWidth + 1)
+          .map(p => p.textContent.split('\\n')
+                     .reduce((a, b) => b.length > a.length ? b : a, '')),
   };
 }"""
 
@@ -705,6 +711,13 @@ def check_page(
             problems.append("no equation on the page with the paper's equations")
         if "$$" in facts["text"]:
             problems.append("raw $$ in the text")
+        if facts[
+            "wide"
+        ]:  # at 1280 pixels (check_book's window): book/_static/acder.css
+            problems.append(
+                f"{len(facts['wide'])} code cell(s) scroll sideways, e.g. a line of "
+                f"{len(facts['wide'][0])} characters: {facts['wide'][0][:60]!r}"
+            )
         raw = RAW_TABLE.findall(facts["text"])
         if raw:
             problems.append(f"raw Markdown table text: {raw[0].strip()[:100]!r}")
