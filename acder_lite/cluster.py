@@ -123,8 +123,8 @@ def connect(address: str | None, cpus: int, say=print):
             try:
                 ctx = ray.init(address=address, runtime_env=runtime_env, **quiet)
                 error = None
-            except (ConnectionError, RuntimeError, ValueError) as e:
-                error = e
+            except Exception as e:  # Ray's kinds vary (ConnectionError, ...): any
+                error = e  # is a refusal, and the held lines must not be lost
         if error is not None:
             raise Refused(join_problem(address, error, held["text"])) from None
         sys.stderr.write(held["text"])  # a joined cluster's messages, if any
