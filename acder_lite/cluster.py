@@ -11,12 +11,14 @@ connection, which a Ray Client driver does not (its workload ends when the conne
 drops), and Ray Client's server forks under gRPC threads (ray-project/ray#63202). Run
 the sweep on a node of the cluster instead (over ssh, under nohup or tmux).
 
-Trap: Ray 2.60 clusters use token authentication by default, and a driver joining one
-by an explicit address (`HOST:PORT`, or RAY_ADDRESS behind `auto`) sends no token unless
-`RAY_AUTH_MODE=token` is set (Ray turns it on by itself only for a cluster it finds on
-its own). Without it Ray's C++ client retries for about 20 s, printing a line a second
-straight to file descriptor 2; `connect` holds those lines and `join_problem` turns them
-into one line that says what to set.
+Trap: a cluster with token authentication (`ray start` turns it on with
+`RAY_AUTH_MODE=token`, or when it finds a token file) refuses a driver that joins it by
+an explicit address (`HOST:PORT`, or RAY_ADDRESS behind `auto`) without the token, and
+Ray 2.60 sends none unless `RAY_AUTH_MODE=token` is set: it turns that on by itself only
+for a cluster it finds on its own, and only when a token file exists. Refused, Ray's C++
+client retries for about 20 s, printing a line a second straight to file descriptor 2;
+`connect` holds those lines and `join_problem` turns them into one line that says what
+to set.
 """
 
 from __future__ import annotations
@@ -65,6 +67,14 @@ class Refused(Exception):
 
 def join_problem(address: str, error: Exception, ray_said: str) -> str:
     """One line for a failed join: what Ray raised, and what its C++ client printed."""
+    if type(error).__name__ == "AuthenticationError" or "no authentication token" in (
+        str(error)
+    ):  # RAY_AUTH_MODE=token, and Ray found no token to send
+        return (
+            f"--address={address!r}: RAY_AUTH_MODE=token but no token here: give "
+            "the cluster's (RAY_AUTH_TOKEN, RAY_AUTH_TOKEN_PATH or the file "
+            "~/.ray/auth_token)"
+        )
     if "InvalidAuthToken" in ray_said or "InvalidAuthToken" in str(error):
         if os.environ.get("RAY_AUTH_MODE", "").lower() == "token":
             return (

@@ -102,7 +102,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--address",
         default=None,
         help="join a running Ray cluster from one of its nodes: 'auto' or HOST:PORT "
-        "(the head's GCS port; with token authentication, Ray's default, also "
+        "(the head's GCS port; if the cluster uses token authentication, also "
         "RAY_AUTH_MODE=token); default: start a local Ray for this sweep",
     )
     parser.add_argument(
@@ -471,12 +471,9 @@ def run(args) -> int:
     for c in cells:
         if c.action == "skip":
             _say(f"skip   {c.name} ({c.note})")
-    copied = dict(done=0, failed=0)
-    for c in cells:
-        if c.action == "copy":  # no Ray needed: a copy takes seconds
-            _copy(c, args, copied)
     todo = [c for c in cells if c.action not in ("skip", "copy")]
     if not todo:
+        copied = _copy_all(cells, args)
         made = "".join(
             f"{copied[k]} {word}, "
             for k, word in (("done", "copied"), ("failed", "failed"))
@@ -487,26 +484,35 @@ def run(args) -> int:
         return 1 if copied["failed"] else 0
     import ray
 
+    # Ray before the copies: a cluster that refuses this sweep leaves nothing written
     try:
         cluster.connect(args.address, args.jobs * args.threads, say=_say)
     except cluster.Refused as e:
         return bad(str(e))
     except Exception as e:  # e.g. the local Ray did not start in START_ATTEMPTS tries
         what = f"joining {args.address!r}" if args.address else "starting the local Ray"
-        print(
-            f"error: sweep: {what} failed: {str(e).splitlines()[0][:200]}",
-            file=sys.stderr,
-        )
+        first = (str(e).splitlines() or [type(e).__name__])[0]
+        print(f"error: sweep: {what} failed: {first[:200]}", file=sys.stderr)
         return 1
     from .signals import interrupt_on_signals
 
     interrupt_on_signals()  # `kill PID` of a background sweep cancels its cells cleanly
     replan = (lambda: read_plan(args.plan)) if args.plan is not None else None
     try:
+        copied = _copy_all(cells, args)
         skipped = len(cells) - len(todo) - copied["done"] - copied["failed"]
         return _drive(todo, args, skipped, replan, copied)
     finally:
         ray.shutdown()
+
+
+def _copy_all(cells: list[Cell], args) -> dict:
+    """Copy every 'copy' cell (no Ray needed: a copy takes seconds); the counts."""
+    copied = dict(done=0, failed=0)
+    for c in cells:
+        if c.action == "copy":
+            _copy(c, args, copied)
+    return copied
 
 
 def _copy(cell: Cell, args, counts: dict) -> None:

@@ -248,6 +248,29 @@ def test_address_that_does_not_answer(tmp_path, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_join_problem_says_what_to_set(monkeypatch):
+    """Each way a join fails gets its own line, with what to do."""
+    from acder_lite.cluster import join_problem
+
+    class AuthenticationError(Exception):  # Ray's, by name
+        pass
+
+    a = "10.0.0.1:6379"
+    retries = "gcs_client.cc:210: ... Unauthenticated: RPC error: InvalidAuthToken: ..."
+    monkeypatch.delenv("RAY_AUTH_MODE", raising=False)
+    refused = join_problem(a, ConnectionError("Failed to connect"), retries)
+    assert "set RAY_AUTH_MODE=token" in refused and a in refused
+    monkeypatch.setenv("RAY_AUTH_MODE", "token")
+    assert "refused this sweep's token" in join_problem(a, ConnectionError(""), retries)
+    none = join_problem(a, AuthenticationError("no authentication token was found"), "")
+    assert "RAY_AUTH_MODE=token but no token here" in none
+    other = join_problem(a, ConnectionError("Could not find any running Ray\nmore"), "")
+    assert other.endswith("no Ray cluster there (Could not find any running Ray)")
+    assert "(ValueError)" in join_problem(a, ValueError(""), "")
+    for line in (refused, none, other):
+        assert "\n" not in line
+
+
 class RayHead:
     """`ray start --head --block` on a free port with token authentication (a token of
     its own, in the environment), in a temp folder of its own; `stop` ends it and
