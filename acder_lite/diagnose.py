@@ -38,7 +38,7 @@ import torch
 from . import envs as E
 from .config import OBJECT_ENVS, Config, ConfigError
 from .curiosity import SICM
-from .io import CheckpointError, load_torch, write_json
+from .io import CheckpointError, json_ready, load_torch, write_json
 
 
 def state_names(trainer) -> list[str]:
@@ -514,5 +514,5 @@ def run(args) -> int:
     d = diagnose(args.run, args.batches, args.episodes, args.seed, args.top)
     print(to_text(d))
     if args.json:
-        write_json(args.json, d)
+        write_json(args.json, json_ready(d))  # a share of no rows: null, not NaN
     return 0

@@ -47,6 +47,17 @@ def _atomic(path: str, write) -> None:
         raise
 
 
+def json_ready(v):
+    """`v` with inf and NaN (which JSON has not) as None, through lists and dicts."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, (list, tuple)):
+        return [json_ready(x) for x in v]
+    if isinstance(v, dict):
+        return {k: json_ready(x) for k, x in v.items()}
+    return v
+
+
 def write_json(path: str, obj) -> None:
     _atomic(
         path,

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from .config import OBJECT_ENVS, TASK_PRESETS
+from .io import json_ready
 
 TASKS = ("FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4")
 """The paper's three tasks, in the column order of Table I."""
@@ -503,15 +504,6 @@ class CellStat:
         d["crossing_episodes_paper_units"] = json_ready(self.paper_units(self.crossing))
         d["crossing_our_episodes"] = json_ready(self.our_episodes(self.crossing))
         return d
-
-
-def json_ready(v):
-    """`v` with inf and NaN (which JSON has not) as None, lists element by element."""
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, (list, tuple)):
-        return [json_ready(x) for x in v]
-    return v
 
 
 def one_or_none(values):

@@ -140,6 +140,11 @@ def test_text_of_a_minibatch_without_successful_rows():
     )
     text = D.to_text(dict(run="r", method="acder", env="FetchPush-v4", curiosity=c))
     assert "no row of a successful episode drawn" in text and "nan" not in text
+    # and its --json file is strict JSON: null where the share has no rows
+    from acder_lite.io import json_ready
+
+    strict = json.loads(json.dumps(json_ready(dict(curiosity=c)), allow_nan=False))
+    assert strict["curiosity"]["share_at_clip_successful"] is None
     c.update(successful_rows=512, share_at_clip_successful=0.25)
     text = D.to_text(dict(run="r", method="acder", env="FetchPush-v4", curiosity=c))
     assert "0.25 of the 512 rows of successful episodes" in text
