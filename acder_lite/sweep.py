@@ -24,10 +24,10 @@ Without `--address` the sweep starts a local Ray of its own (nothing to set up) 
 stops it at the end; with `--address auto` or `--address HOST:PORT`, run on a node of a
 running cluster, it joins that cluster, where the results folder must be shared storage
 that every node sees at the same path (`acder_lite.cluster`). Trap: a local Ray cannot
-be kept on the loopback interface: Ray 2.60
-turns 127.0.0.1 into the node's own address (`services.resolve_ip_for_localhost`) and
-its gRPC servers listen on every interface; what guards them is Ray's token
-authentication, on by default.
+be kept on the loopback interface: Ray 2.60 turns 127.0.0.1 into the node's own address
+(`services.resolve_ip_for_localhost`) and its gRPC servers listen on every interface;
+what guards them is the token authentication that Ray turns on by default for a Ray
+that `ray.init` starts.
 """
 
 from __future__ import annotations
