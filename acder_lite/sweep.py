@@ -489,7 +489,7 @@ def run(args) -> int:
         cluster.connect(args.address, args.jobs * args.threads, say=_say)
     except cluster.Refused as e:
         return bad(str(e))
-    except Exception as e:  # e.g. the local Ray did not start in START_ATTEMPTS tries
+    except Exception as e:  # e.g. the local Ray did not start (cluster.START_ATTEMPTS)
         what = f"joining {args.address!r}" if args.address else "starting the local Ray"
         first = (str(e).splitlines() or [type(e).__name__])[0]
         print(f"error: sweep: {what} failed: {first[:200]}", file=sys.stderr)
