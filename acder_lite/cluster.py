@@ -61,6 +61,12 @@ def check_address(address: str) -> str | None:
     return None
 
 
+def first_line(error: BaseException) -> str:
+    """The first line of an error's message, or its type's name when it has none
+    (Ray's errors run to pages; a sweep's refusal is one line)."""
+    return (str(error).splitlines() or [type(error).__name__])[0]
+
+
 class Refused(Exception):
     """The cluster at `--address` could not be joined; the message is one line."""
 
@@ -87,8 +93,7 @@ def join_problem(address: str, error: Exception, ray_said: str) -> str:
             "RAY_AUTH_MODE=token and give the cluster's token (RAY_AUTH_TOKEN, or the "
             "file ~/.ray/auth_token)"
         )
-    first = (str(error).splitlines() or [type(error).__name__])[0]
-    return f"--address={address!r}: no Ray cluster there ({first[:160]})"
+    return f"--address={address!r}: no Ray cluster there ({first_line(error)[:160]})"
 
 
 @contextlib.contextmanager

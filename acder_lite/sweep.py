@@ -491,8 +491,8 @@ def run(args) -> int:
         return bad(str(e))
     except Exception as e:  # e.g. the local Ray did not start (cluster.START_ATTEMPTS)
         what = f"joining {args.address!r}" if args.address else "starting the local Ray"
-        first = (str(e).splitlines() or [type(e).__name__])[0]
-        print(f"error: sweep: {what} failed: {first[:200]}", file=sys.stderr)
+        first = cluster.first_line(e)[:200]
+        print(f"error: sweep: {what} failed: {first}", file=sys.stderr)
         return 1
     from .signals import interrupt_on_signals
 

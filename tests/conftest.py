@@ -30,6 +30,31 @@ def tiny_config(**kw) -> Config:
     return Config(**base)
 
 
+def stop_tree(proc: subprocess.Popen, also=(), timeout: float = 30) -> None:
+    """Stop `proc` and every process under it (and the pids in `also`): terminate the
+    parent first, so it can shut down cleanly, then kill what it left behind. The trap:
+    children must be listed before the parent exits, or they are reparented and lost."""
+    import psutil
+
+    try:
+        pids = {p.pid for p in psutil.Process(proc.pid).children(recursive=True)}
+    except psutil.Error:
+        pids = set()
+    pids.update(also)
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    for pid in pids:
+        try:
+            psutil.Process(pid).kill()
+        except psutil.Error:
+            pass
+
+
 def rows_of(path) -> list[dict]:
     """A run's progress.csv rows as text, without the one column that differs between
     two runs computing the same numbers (wall_s)."""

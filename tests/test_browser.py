@@ -38,6 +38,7 @@ import numpy as np
 import pytest
 
 from conftest import listening as _listening
+from conftest import stop_tree
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = Path(sys.executable).parent
@@ -393,21 +394,8 @@ class Lab:
         return {pid: _listening(pid) for pid in pids}
 
     def stop(self) -> None:
-        import psutil
-
-        self.children.update(_descendants(self.proc.pid))
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        for pid in self.children:  # kernels and the Meshcat servers they started
-            try:
-                psutil.Process(pid).kill()
-            except psutil.Error:
-                pass
+        # kernels and the Meshcat servers they started, seen while the server ran
+        stop_tree(self.proc, also=self.children, timeout=20)
 
 
 LIVE_MESHCAT = [

@@ -17,6 +17,7 @@ import pytest
 
 from acder_lite import sweep as S
 from acder_lite.plan import plan, read_plan
+from conftest import stop_tree
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -325,23 +326,7 @@ class RayHead:
         return env
 
     def stop(self) -> None:
-        import psutil
-
-        try:
-            procs = [psutil.Process(self.proc.pid)]
-            procs += procs[0].children(recursive=True)
-        except psutil.Error:
-            procs = []
-        self.proc.terminate()
-        try:
-            self.proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-        for p in procs:
-            try:
-                p.kill()
-            except psutil.Error:
-                pass
+        stop_tree(self.proc)
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
