@@ -290,6 +290,13 @@ class Config:
     restart_goal: str = "resample"
     """Goal of an episode restarted from a stored state:
     'resample' (fresh) or 'episode' (stored)."""
+    reward_bonus: float = 0.0
+    """A constant added to every minibatch reward, beside r_i where the method has one:
+    r = lambda * r_her + r_i + reward_bonus. Not the paper's: a control for curiosity
+    (experiments/constant-bonus/). On Push, HER+ICM's bonus grows toward its clip eta
+    and varies little from one transition to the next, so a constant of its size asks
+    how much of HER+ICM's gain comes from shifting every reward rather than from
+    novelty. 0 (the default): nothing is added. A number in [-1, 1]."""
     icm_feature_dim: int = 64
     """ICM (Pathak et al.): size of the learned feature embedding."""
     icm_beta: float = 0.2
@@ -511,6 +518,8 @@ class Config:
             bad("eta", "a number in (0, 1) (paper, Eq. 4)")
         if self.alpha0 is not None and not 0 <= self.alpha0 <= 1:
             bad("alpha0", "a number in [0, 1] (paper, Eq. 9)")
+        if not -1 <= self.reward_bonus <= 1:  # also refuses nan
+            bad("reward_bonus", "a number in [-1, 1]")
         if self.restart_goal not in ("resample", "episode"):
             bad("restart_goal", "'resample' or 'episode'")
         if not isinstance(self.compile_update, bool):

@@ -32,6 +32,7 @@ COLORS = {
     "sicm-normalised": "C4",
     "sicm-raw": "C9",
     "sicm-raw-episode-goal": "C1",
+    "her-bonus": "C8",
 }
 """One colour per method or experiment, the same in every figure."""
 

@@ -764,11 +764,11 @@ def learning_curves(runs: list[dict]) -> dict[tuple[str, str], MeanCurve]:
 
 
 def column_tail(
-    runs: list[dict], env: str, name: str, column: str, last: int = 5
+    runs: list[dict], env: str, name: str, column: str, last: int | None = 5
 ) -> float | None:
-    """A progress.csv column averaged over each seed's `last` evaluations, then over the
-    seeds of (env, name); None where no seed has the column (e.g. r_int_mean of a method
-    without S-ICM)."""
+    """A progress.csv column averaged over each seed's `last` evaluations (all of them
+    with None), then over the seeds of (env, name); None where no seed has the column
+    (e.g. r_int_mean of a method without S-ICM)."""
     per_seed = []
     for r in runs:
         if r["env"] == env and r["name"] == name:
@@ -778,5 +778,5 @@ def column_tail(
                 if isinstance(row.get(column), float) and not math.isnan(row[column])
             ]
             if vals:
-                per_seed.append(float(np.mean(vals[-last:])))
+                per_seed.append(float(np.mean(vals if last is None else vals[-last:])))
     return float(np.mean(per_seed)) if per_seed else None

@@ -51,6 +51,7 @@ METHOD_LABELS = {
     "sicm-raw": "ACDER, S-ICM on raw (o, g)",
     "sicm-raw-episode-goal": "ACDER, S-ICM on raw (o, g), "
     "restarts keep the episode's goal",
+    "her-bonus": "DDPG+HER with a constant bonus",
 }
 """How the paper names each method (folder names: methods,
 and our experiments' names)."""
@@ -436,6 +437,41 @@ def bonus_sentence(
             eta = TASK_PRESETS[env]["eta"]
             parts.append(f"on {task_label(env)} (clip η = {eta}): {', '.join(vals)}")
     return sentence(parts) or "No curiosity method has an evaluation yet."
+
+
+def control_sentence(her: CellStat, icm: CellStat, bonus: CellStat) -> str:
+    """The curiosity control read off the runs (experiments/constant-bonus/): the
+    crossings of DDPG+HER, DDPG+HER+ICM and DDPG+HER with a constant bonus
+    (`Config.reward_bonus`) in order, the share of ICM's gain over HER that the constant
+    alone gives, (HER - bonus) / (HER - ICM) in episodes, and where the constant's
+    crossing lies against the other two's 95% intervals."""
+    cells = [her, icm, bonus]
+    text = f"Ordered by the mean curve: {order_sentence(cells)}."
+    if any(c.crossing is None for c in cells):
+        return text + " The three can be compared once each mean curve has crossed."
+    gain = her.crossing - icm.crossing
+    if gain <= 0:
+        return text + (
+            f" {label(icm.name)} is no faster than {label(her.name)} here, so there "
+            "is no gain of curiosity for the constant to explain."
+        )
+    saved = her.crossing - bonus.crossing
+    text += (
+        f" Of {label(icm.name)}'s {units(icm, gain)} episodes saved over "
+        f"{label(her.name)}, the constant alone saves {units(bonus, saved)}: "
+        f"{saved / gain:.0%}."
+    )
+
+    def against(c: CellStat) -> str:
+        inside = c.low is not None and c.low <= bonus.crossing <= c.high
+        return f"{'inside' if inside else 'outside'} {label(c.name)}'s"
+
+    text += f" Its crossing lies {against(her)} 95% interval and {against(icm)}" + (
+        f" ({bonus.done} of {bonus.planned} seeds finished)."
+        if bonus.planned and bonus.done < bonus.planned
+        else "."
+    )
+    return text
 
 
 def order_sentence(cells: list[CellStat]) -> str:

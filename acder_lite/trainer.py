@@ -53,23 +53,23 @@ methods add their diagnostics after these."""
 
 
 def target_clip(
-    clip: str, switches: dict, eta: float, gamma: float
+    clip: str, switches: dict, eta: float, gamma: float, bonus: float = 0.0
 ) -> tuple[float, float]:
     """The range the critic's target y is clipped to
     (`compute_loss_q`), `Config.target_clip`.
 
     "baselines" (protocol v2, every method): Baselines' [-1/(1-gamma), 0] whatever the
     rewards (its clip_pos_returns), so accumulated curiosity cannot make Q positive.
-    "wide" (protocol v1's ACDER): the rewards lambda * r_her + r_i lie in
-    [-lambda_max, r_i_max], so y is clipped to that range over 1 - gamma,
-    lambda_max = 1.5 with the goal factor (Eq. 6), r_i_max = eta when r_i is in the
-    reward (Eq. 4).
+    "wide" (protocol v1's ACDER): the rewards lambda * r_her + r_i + bonus lie in
+    [bonus - lambda_max, bonus + r_i_max], so y is clipped to that range over
+    1 - gamma, lambda_max = 1.5 with the goal factor (Eq. 6), r_i_max = eta when r_i is
+    in the reward (Eq. 4), bonus = `Config.reward_bonus`.
     """
     if clip == "baselines":
         return (-1.0 / (1 - gamma), 0.0)
     lam_max = 1.5 if switches["goal_factor"] else 1.0
     r_i_max = eta if switches["curiosity_reward"] else 0.0
-    return (-lam_max / (1 - gamma), r_i_max / (1 - gamma))
+    return ((bonus - lam_max) / (1 - gamma), (bonus + r_i_max) / (1 - gamma))
 
 
 class Trainer:
@@ -152,7 +152,9 @@ class Trainer:
             from .priority import EnergyPrioritizer
 
             self.ebp = EnergyPrioritizer(self.buffer.size)
-        self.clip_return = target_clip(cfg.target_clip, sw, cfg.eta, cfg.gamma)
+        self.clip_return = target_clip(
+            cfg.target_clip, sw, cfg.eta, cfg.gamma, cfg.reward_bonus
+        )
         # progress
         self.cycle = 0  # cycles done in all
         self.episodes = 0  # training episodes (all workers)
@@ -289,7 +291,7 @@ class Trainer:
 
     def rewards(self, batch: dict, tb: dict) -> torch.Tensor:
         """r = lambda * r_her + r_i (Eq. 4-6),
-        with lambda = 1 on rows HER did not relabel.
+        with lambda = 1 on rows HER did not relabel, plus `Config.reward_bonus`.
 
         Also the curiosity module's training step (Eq. 7-8, same minibatch) and the
         start-state candidate of this minibatch; r_i stays out of r when the method's
@@ -312,6 +314,10 @@ class Trainer:
         # agent position s^a_t = gripper position, o[:3] (book/departures.md,
         # departure 10); the simplified observation keeps it first
         # (observations.simplified_indices checks it)
+        bonus = r_int if sw["curiosity_reward"] else None
+        if self.cfg.reward_bonus:  # the curiosity control (Config.reward_bonus)
+            c = np.float32(self.cfg.reward_bonus)
+            bonus = np.full(len(batch["r"]), c) if bonus is None else bonus + c
         goal = goal_factor_target(batch["g"], batch["ag"])
         r, lam = shaped_reward(
             batch["r"],
@@ -319,7 +325,7 @@ class Trainer:
             batch["o"][:, :3],
             goal,
             batch["u"],
-            r_int if sw["curiosity_reward"] else None,
+            bonus,
             sw["goal_factor"],
         )
         if sw["goal_factor"]:

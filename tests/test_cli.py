@@ -51,6 +51,8 @@ def one_line_error(p, *needles):
         (["--method", "her-ebp"], ["her-ebp", "object", "FetchPush-v4"]),
         (["--no-such-option", "1"], ["unrecognized", "--no-such-option"]),
         (["--compile-update=yes"], ["--compile-update", "ignored explicit argument"]),
+        (["--reward-bonus", "2"], ["reward_bonus=2.0", "[-1, 1]"]),
+        (["--reward-bonus", "nan"], ["reward_bonus=nan", "[-1, 1]"]),
     ],
 )
 def test_train_bad_input(cli, tmp_path, args, needles):
@@ -69,6 +71,7 @@ def test_protocol_settings_reach_config_json(cli, tmp_path):
         *"train --env FetchReach-v4 --method acder --epochs 1".split(),
         *TINY,
         *"--target-clip wide --sicm-input normalised --init torch".split(),
+        *"--reward-bonus 0.25".split(),
         *("--out", str(out)),
     )
     assert p.returncode == 0, p.stderr
@@ -83,7 +86,7 @@ def test_protocol_settings_reach_config_json(cli, tmp_path):
         5,
         "worker",
     )
-    assert "target_clip" not in cfg["switches"]
+    assert "target_clip" not in cfg["switches"] and cfg["reward_bonus"] == 0.25
     done = json.loads((out / "done.json").read_text())
     assert (
         done["stop_reason"] == "budget"

@@ -533,6 +533,9 @@ def test_bonus_sentence_averages_each_seeds_last_evaluations():
     text = T.bonus_sentence(runs, ["FetchReach-v4", P], last=2)
     assert text == "On Push (clip η = 0.8): DDPG+HER+ICM 0.70, DDPG+ACDER 0.15."
     assert T.bonus_sentence([], [P]) == "No curiosity method has an evaluation yet."
+    # every evaluation (last=None): seeds (0.1 + 0.6 + 0.8) / 3 = 0.5 and 0.7 / 3 * 2
+    want = (0.5 + 1.4 / 3) / 2
+    assert RE.column_tail(runs, P, "her-icm", "r_int_mean", None) == pytest.approx(want)
 
 
 def test_finished_run_skips_a_run_still_training(tmp_path):
@@ -568,3 +571,30 @@ def test_grid_state_counts_the_three_tasks_cells_only():
         f"least one finished seed; 5 of the {planned} planned seeds have finished, "
         "1 more is training or interrupted."
     )
+
+
+def test_control_sentence_by_hand():
+    """HER crosses at 2.9 epochs, ICM at 1.9 (as above); a constant bonus at 0.9 by
+    epoch 2 crosses at 2 + 0.05 / 0.1 = 2.5: 0.4 of ICM's 1.0 epoch saved, 160 of 400
+    episodes, 40%. Two equal seeds: every interval is its point."""
+    her, icm = cell("her", [0.0, 0.5, 1.0, 1.0]), cell("her-icm", [0.5, 1.0, 1.0, 1.0])
+    bonus = cell("her-bonus", [0.0, 0.9, 1.0, 1.0])
+    s = T.control_sentence(her, icm, bonus)
+    assert (
+        "DDPG+HER+ICM 760 < DDPG+HER with a constant bonus 1,000 < DDPG+HER 1,160" in s
+    )
+    assert (
+        "Of DDPG+HER+ICM's 400 episodes saved over DDPG+HER, the constant alone " in s
+    )
+    assert "saves 160: 40%." in s
+    assert "outside DDPG+HER's 95% interval and outside DDPG+HER+ICM's." in s
+    same = cell("her-bonus", [0.5, 1.0, 1.0, 1.0])
+    s = T.control_sentence(her, icm, same)
+    assert "saves 400: 100%." in s and "inside DDPG+HER+ICM's." in s
+    s = T.control_sentence(her, icm, RE.cell_stat(P, "her-bonus", []))
+    assert "not run yet: DDPG+HER with a constant bonus" in s
+    assert "can be compared once each mean curve has crossed" in s
+    s = T.control_sentence(
+        icm, her, bonus
+    )  # "ICM" slower than "HER": nothing to explain
+    assert "no gain of curiosity for the constant to explain" in s

@@ -149,6 +149,44 @@ def test_target_clip_by_hand(method, expected):
     )
 
 
+def test_wide_clip_moves_with_the_reward_bonus():
+    """Rewards lambda * r_her + r_i + 0.25 on Push (eta = 0.8, gamma = 0.98): ACDER's in
+    [0.25 - 1.5, 0.25 + 0.8], HER's in [0.25 - 1, 0.25], each over 1 - gamma = 0.02."""
+    assert target_clip("wide", METHODS["acder"], 0.8, 0.98, 0.25) == pytest.approx(
+        (-62.5, 52.5)
+    )
+    assert target_clip("wide", METHODS["her"], 0.8, 0.98, 0.25) == pytest.approx(
+        (-37.5, 12.5)
+    )
+    assert target_clip("baselines", METHODS["her"], 0.8, 0.98, 0.25) == pytest.approx(
+        (-50.0, 0.0)
+    )
+
+
+@pytest.mark.parametrize("method", ["her", "acder-no-curiosity", "her-icm"])
+def test_reward_bonus_adds_its_constant_to_every_row(method):
+    """The same minibatch, rewarded without and with `reward_bonus`: every row gains
+    the constant, by hand on HER's {-1, 0} rewards (her: -0.75 or 0.25), beside the goal
+    factor and beside ICM's r_i (the curiosity module's step is undone in between, so
+    both calls see the same r_i)."""
+    import copy
+
+    tr = Trainer(tiny_config(method=method, env="FetchPush-v4", epochs=1))
+    tr.train(False)
+    batch = tr.sample_batch()
+    tb = tr.batch_tensors(batch)
+    cur = copy.deepcopy(tr.curiosity)
+    plain = tr.rewards(batch, tb).numpy()
+    tr.curiosity, tr.cfg.reward_bonus = cur, 0.25
+    with_bonus = tr.rewards(batch, tb).numpy()
+    np.testing.assert_allclose(with_bonus, plain + 0.25, rtol=0, atol=1e-6)
+    if method == "her":
+        assert set(np.unique(batch["r"])) == {-1.0, 0.0}
+        np.testing.assert_array_equal(
+            np.sort(np.unique(with_bonus)), np.float32([-0.75, 0.25])
+        )
+
+
 def test_baselines_clip_caps_the_critics_target_at_zero():
     # target_clip="baselines", the default
     tr = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1))
