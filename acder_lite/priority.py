@@ -171,7 +171,7 @@ class PrioritizedReplay:
 
     def sample(self, rng: np.random.Generator, batch_size: int, beta: float):
         """Stratified: one uniform draw in each of `batch_size` equal segments of the
-        total (Alg. 1).
+        total (Schaul et al., Appendix B.2.1; their Alg. 1 only says j ~ P(j)).
 
         Returns (ep, t, weights): int64, int64, float32 importance weights (see class
         docstring).

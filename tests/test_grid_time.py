@@ -83,4 +83,58 @@ def test_the_sweeps_budget_copies_holds_and_unreadable_rows(grid, capsys):
     # her seed 2 alone: 12 epochs at 125 s, or 12 (its runs ended at 15 > 12)
     assert est["cells"] == 1 and est["held"] == 1
     assert est["budget_h"] == pytest.approx(12 * 125 / 3600) == est["finished_h"]
-    assert G.sentence(est, 1).endswith("on hold, not counted: 1 cell")
+    assert "; on hold, not counted: 1 cell" in G.sentence(est, 1)
+
+
+def on_cpus(root, env, method, seed, walls, cpus, resume_at=()):
+    """A finished run whose epochs ended at the cumulative `walls`, trained first on
+    cpus[0], then resumed on cpus[i] at epoch resume_at[i - 1] (as config.json says)."""
+    write_run(root, env, method, seed, len(walls), 1.0)
+    d = run_dir(root, env, method, seed)
+    with open(d / "progress.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(
+            ["epoch", "cycle", "episodes", "env_steps", "test_success", "wall_s"]
+        )
+        for e, wall in enumerate(walls, 1):
+            w.writerow([e, e * 50, e * 400, e * 20000, 0.5, wall])
+    whole = json.loads((d / "config.json").read_text())
+    whole["versions"] = dict(cpu=cpus[0])
+    whole["resumes"] = [
+        dict(at_cycle=e * 50, versions=dict(cpu=c)) for e, c in zip(resume_at, cpus[1:])
+    ]
+    (d / "config.json").write_text(json.dumps(whole))
+    return d
+
+
+def test_epochs_from_other_cpus_are_scaled_to_this_one(tmp_path):
+    """CPU B takes twice A's time an epoch: her 100 s on A and 200 s on B; acder 150 s
+    for 4 epochs on A, then 300 s for 2 on B after a resume. C ran only her-icm, which
+    nothing else ran: it cannot be tied to A or B and is left unscaled."""
+    A, B, C = "Xeon; torch kernels: AVX512", "EPYC; torch kernels: AVX2", "C"
+    root = tmp_path / "results"
+    on_cpus(root, P, "her", 0, [100.0 * e for e in range(1, 5)], [A])
+    on_cpus(root, P, "her", 1, [200.0 * e for e in range(1, 5)], [B])
+    acder = on_cpus(root, P, "acder", 0, [150, 300, 450, 600, 900, 1200], [A, B], [4])
+    on_cpus(root, P, "her-icm", 0, [50.0, 100.0], [C])
+    assert G.stretches(acder) == [(A, 4.0, 600.0), (B, 2.0, 600.0)]
+    samples = [(A, "her", 4, 400.0), (B, "her", 4, 800.0), (A, "a", 4, 600.0)]
+    samples += [(B, "a", 2, 600.0), (C, "icm", 2, 100.0)]
+    assert G.cpu_factors(samples, A) == pytest.approx({A: 1.0, B: 2.0})
+    assert G.cpu_factors(samples, B) == pytest.approx({A: 0.5, B: 1.0})
+    assert G.cpu_factors(samples, "a CPU with no runs") == {}
+
+    cells = plan([P], ["her", "acder", "her-icm"], [0, 1], root)
+    est = G.estimate(cells, here=B)
+    # on B: acder 300 s an epoch (both stretches), her-icm 50 (C's, unscaled); each
+    # seed 1 from epoch 0 to where its method's runs ended (her's seeds are both done)
+    assert est["factors"] == pytest.approx({A: 0.5, B: 1.0}) and est["unscaled"] == [C]
+    assert est["finished_h"] == pytest.approx((6 * 300 + 2 * 50) / 3600)
+    est = G.estimate(plan([P], ["her"], [2], root) + cells, here=B)
+    # her seed 2 on B: 200 s an epoch (seed 0's 100 on A doubled, seed 1's own 200)
+    assert est["finished_h"] == pytest.approx((4 * 200 + 6 * 300 + 2 * 50) / 3600)
+    line = G.sentence(est, 1)
+    assert "scaled to this CPU, EPYC [AVX2] (an epoch took 0.50x as long on " in line
+    assert "Xeon [AVX512])" in line and line.endswith(
+        "(no task and method in common): C"
+    )
