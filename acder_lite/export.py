@@ -32,14 +32,14 @@ nothing else installed, which is the point of this file. Loading it runs no Pyth
 of ours.
 
 **ONNX** (`--onnx FILE`): `torch.onnx.export` in torch 2.13 needs the `onnx` and
-`onnxscript` packages (and `onnxruntime` to run the file), none of them in
-requirements.txt. They install from the package index beside the pinned stack without
-changing it (onnx 1.23.2, onnxscript 0.7.2, onnx-ir 1.1.0, ml-dtypes 0.7.0, onnxruntime
-1.31.1, flatbuffers 25.12.19; protobuf stays at its pinned 7.36.2), and the export works
-offline with them (measured: the same actions as the policy to 2e-7). Until they are
-pinned, `--onnx` says what to install and the ONNX test is skipped. The ONNX graph takes
-the policy's own observation entries only (one static input width), float32, with a
-dynamic batch axis.
+`onnxscript` packages (and `onnxruntime` to run the file). requirements.txt pins them
+beside the stack without changing it (onnx 1.23.2, onnxscript 0.7.2, onnx-ir 1.1.0,
+ml-dtypes 0.7.0, onnxruntime 1.31.1, flatbuffers 25.12.19; protobuf stays at its pinned
+7.36.2), and the export works offline with them: tests/test_export.py checks the file's
+actions against the policy's. An install without them (the package alone, `pip install
+-e .`) gets one line from `--onnx` saying what to install. The ONNX graph takes the
+policy's own observation entries only (one static input width), float32, with a dynamic
+batch axis.
 """
 
 import argparse
