@@ -180,6 +180,43 @@ def episode_errors(trainer, ep: dict, eta: float = np.inf) -> np.ndarray:
     return intrinsic_reward(pred.cpu().numpy(), s2.cpu().numpy(), eta).reshape(W, T)
 
 
+def goal_factor_against_object(
+    grip: np.ndarray,
+    obj: np.ndarray,
+    goal: np.ndarray,
+    action: np.ndarray,
+    moved: float = 0.01,
+) -> dict:
+    """What Eq. 6 rewards on a one-object task, against the way to the block
+    (chapter 5).
+
+    Rows of relabelled transitions: `grip` the gripper position s^a_t, `obj` the block's
+    position at step t, `goal` the relabelled 3-D goal g^h (a later block position),
+    `action` the action a_t; shapes (B, 3) (the action (B, 4)). Returns, per row,
+
+    - `lam_goal`: Eq. 6 as the trainer computes it (`rewards.goal_oriented_factor`,
+      gripper -> g^h);
+    - `lam_obj`: Eq. 6 of the same action against the block (gripper -> block);
+    - `angle`: the angle between gripper -> g^h and gripper -> block, in degrees;
+    - `moved`: whether the block moved between step t and g^h's step (g^h more than
+      `moved`, 1 cm, from the block).
+
+    The angle is Eq. 6 read backwards, (lambda - 1) * 360 degrees, with the direction
+    to the block in the place of the action: 0 when g^h and the block lie in the same
+    direction from the gripper, 90 when either vector is shorter than
+    `rewards.ZERO_NORM`."""
+    from .rewards import goal_oriented_factor
+
+    grip, obj, goal = (np.asarray(a, np.float64) for a in (grip, obj, goal))
+    to_obj = obj - grip
+    return dict(
+        lam_goal=goal_oriented_factor(grip, goal, action),
+        lam_obj=goal_oriented_factor(grip, obj, action),
+        angle=360.0 * (goal_oriented_factor(grip, goal, to_obj) - 1.0),
+        moved=np.linalg.norm(goal - obj, axis=-1) > moved,
+    )
+
+
 def pool_profile(trainer, far: float = 0.2) -> dict:
     """Where the pool's start states put the gripper (and the object,
     on tasks that have one).

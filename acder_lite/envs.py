@@ -153,24 +153,28 @@ def goal_names(env) -> list[str]:
     return [f"goal{i}.{c}" for i in range(n // 3) for c in "xyz"]
 
 
-def state_size(env) -> int:
-    return int(mujoco.mj_stateSize(env.model, STATE_SPEC))
+def state_size(env, spec: int = STATE_SPEC) -> int:
+    """Numbers in a stored state of `spec` (`mj_stateSize`; default `STATE_SPEC`)."""
+    return int(mujoco.mj_stateSize(env.model, spec))
 
 
-def get_state(env, out: np.ndarray | None = None) -> np.ndarray:
-    """The full physics state (float64), `mj_getState(..., STATE_SPEC)`."""
+def get_state(env, out: np.ndarray | None = None, spec: int = STATE_SPEC) -> np.ndarray:
+    """The full physics state (float64), `mj_getState(..., STATE_SPEC)`.
+
+    `spec` picks other MuJoCo state components (an `mjtState` bit mask, e.g.
+    `mjSTATE_FULLPHYSICS`; chapter 6 compares them); training always uses the default.
+    Set such a state back with the same `spec`."""
     if out is None:
-        out = np.empty(state_size(env), dtype=np.float64)
-    mujoco.mj_getState(env.model, env.data, out, STATE_SPEC)
+        out = np.empty(state_size(env, spec), dtype=np.float64)
+    mujoco.mj_getState(env.model, env.data, out, spec)
     return out
 
 
-def set_state(env, state: np.ndarray) -> None:
+def set_state(env, state: np.ndarray, spec: int = STATE_SPEC) -> None:
     """Write a stored full physics state back and recompute derived quantities
-    (`mj_forward`)."""
-    mujoco.mj_setState(
-        env.model, env.data, np.asarray(state, dtype=np.float64), STATE_SPEC
-    )
+    (`mj_forward`). `spec` is the one `get_state` stored it with (default
+    `STATE_SPEC`)."""
+    mujoco.mj_setState(env.model, env.data, np.asarray(state, dtype=np.float64), spec)
     mujoco.mj_forward(env.model, env.data)
 
 

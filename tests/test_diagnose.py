@@ -386,3 +386,26 @@ def test_errors_need_sicm():
     tr = Trainer(tiny_config(method="her"))
     with pytest.raises(ConfigError, match="no S-ICM"):
         D.minibatch_errors(tr)
+
+
+def test_goal_factor_against_object_by_hand():
+    # gripper at the origin, block 10 cm along +x; four relabelled goals
+    grip = np.zeros((4, 3))
+    obj = np.tile([0.1, 0.0, 0.0], (4, 1))
+    goal = np.array(
+        [
+            [0.1, 0.0, 0.0],  # the block itself: it has not moved
+            [0.105, 0.0, 0.0],  # 5 mm on: less than 1 cm, not moved
+            [0.0, 0.2, 0.0],  # off to the side (+y): 90 degrees
+            [-0.1, 0.0, 0.0],  # behind the gripper: 180 degrees
+        ]
+    )
+    u = np.array([[1, 0, 0, 0.3], [0, 0, 1, 0], [0, 1, 0, 0], [1, 0, 0, 0]], float)
+    f = D.goal_factor_against_object(grip, obj, goal, u)
+    np.testing.assert_array_equal(f["moved"], [False, False, True, True])
+    np.testing.assert_allclose(f["angle"], [0, 0, 90, 180], atol=1e-6)
+    # Eq. 6: 1 + angle / 360 degrees; u[1] is up, perpendicular to both directions
+    np.testing.assert_allclose(f["lam_goal"], [1, 1.25, 1, 1.5])
+    np.testing.assert_allclose(f["lam_obj"], [1, 1.25, 1.25, 1])
+    wider = D.goal_factor_against_object(grip, obj, goal, u, moved=0.3)
+    assert not wider["moved"].any()  # 0.3 m: no goal lies that far from the block

@@ -60,3 +60,37 @@ def test_step_matches_the_env_step_up_to_the_kinematics_refresh():
     np.testing.assert_allclose(mine["observation"], theirs["observation"], atol=2e-3)
     assert ok == info["is_success"]
     np.testing.assert_array_equal(a.data.qpos, b.data.qpos)  # same physics step
+
+
+def test_get_and_set_state_with_another_spec():
+    import mujoco
+
+    full = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    env = E.make_env("FetchPush-v4", seed=6)
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        E.step(env, rng.uniform(-1, 1, 4))
+    # the default spec is STATE_SPEC, as every existing call has it
+    np.testing.assert_array_equal(E.get_state(env), E.get_state(env, spec=E.STATE_SPEC))
+    state = E.get_state(env, spec=full)
+    assert state.size == E.state_size(env, full) < E.state_size(env)
+    want = {k: getattr(env.data, k).copy() for k in ("qpos", "qvel", "act")}
+    want["time"], mocap = env.data.time, env.data.mocap_pos.copy()
+    for _ in range(5):  # move on: qpos, qvel, time and the mocap target change
+        E.step(env, rng.uniform(-1, 1, 4))
+    assert not np.array_equal(env.data.qpos, want["qpos"])
+    assert not np.array_equal(env.data.mocap_pos, mocap)
+    E.set_state(env, state, spec=full)
+    for k in ("qpos", "qvel", "act", "time"):
+        np.testing.assert_array_equal(getattr(env.data, k), want[k])
+    # FULLPHYSICS holds no mocap pose: it stays where the later steps left it
+    assert not np.array_equal(env.data.mocap_pos, mocap)
+    # a mocap-only state writes the mocap pose back and nothing else
+    env.data.mocap_pos[:] = mocap
+    only = E.get_state(env, spec=int(mujoco.mjtState.mjSTATE_MOCAP_POS))
+    assert only.size == mocap.size
+    env.data.mocap_pos[:] += 0.1
+    qpos = env.data.qpos.copy()
+    E.set_state(env, only, spec=int(mujoco.mjtState.mjSTATE_MOCAP_POS))
+    np.testing.assert_array_equal(env.data.mocap_pos, mocap)
+    np.testing.assert_array_equal(env.data.qpos, qpos)
