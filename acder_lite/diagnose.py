@@ -217,6 +217,20 @@ def goal_factor_against_object(
     )
 
 
+def clip_effect(familiar: float, new: float, name: str) -> tuple[str, bool]:
+    """What a clip eta does to one S-ICM input's errors, in words (chapter 4), from
+    the shares of familiar and of new transitions at or above it: (sentence, whether
+    it caps part of the errors, i.e. neither none of them nor most of either set)."""
+    if min(familiar, new) > 0.5:
+        return (
+            f"most {name} errors sit at the clip, making curiosity a flat bonus",
+            False,
+        )
+    if max(familiar, new) == 0:
+        return f"no {name} error here reaches it, so the clip never acts", False
+    return f"the clip caps part of the {name} errors and leaves the rest below it", True
+
+
 def pool_profile(trainer, far: float = 0.2) -> dict:
     """Where the pool's start states put the gripper (and the object,
     on tasks that have one).

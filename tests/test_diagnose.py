@@ -409,3 +409,17 @@ def test_goal_factor_against_object_by_hand():
     np.testing.assert_allclose(f["lam_obj"], [1, 1.25, 1.25, 1])
     wider = D.goal_factor_against_object(grip, obj, goal, u, moved=0.3)
     assert not wider["moved"].any()  # 0.3 m: no goal lies that far from the block
+
+
+@pytest.mark.parametrize(
+    "familiar, new, said, caps",
+    [
+        (0.6, 0.9, "most raw errors sit at the clip", False),  # both above a half
+        (0.6, 0.4, "the clip caps part of the raw errors", True),  # one set below
+        (0.0, 0.0, "no raw error here reaches it", False),
+        (0.0, 0.01, "the clip caps part of the raw errors", True),  # a few reach it
+    ],
+)
+def test_clip_effect_in_words(familiar, new, said, caps):
+    text, ok = D.clip_effect(familiar, new, "raw")
+    assert text.startswith(said) and ok is caps
