@@ -311,13 +311,13 @@ class Trainer:
             self.diag["cur_loss"] += float(loss)
             if self.selector is not None:
                 self.selector.offer(batch, r_int, self.buffer)
-        # agent position s^a_t = gripper position, o[:3] (book/departures.md,
-        # departure 10); the simplified observation keeps it first
-        # (observations.simplified_indices checks it)
         bonus = r_int if sw["curiosity_reward"] else None
         if self.cfg.reward_bonus:  # the curiosity control (Config.reward_bonus)
             c = np.float32(self.cfg.reward_bonus)
             bonus = np.full(len(batch["r"]), c) if bonus is None else bonus + c
+        # agent position s^a_t = gripper position, o[:3] (book/departures.md,
+        # departure 10); the simplified observation keeps it first
+        # (observations.simplified_indices checks it)
         goal = goal_factor_target(batch["g"], batch["ag"])
         r, lam = shaped_reward(
             batch["r"],
