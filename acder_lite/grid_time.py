@@ -93,12 +93,15 @@ def cpu_factors(samples, here: str, rounds: int = 200) -> dict[str, float]:
     return {c: math.exp(v - a[here]) for c, v in a.items()}
 
 
-def finished_timings(folders, factors: dict | None = None) -> tuple[dict, dict]:
+def finished_timings(
+    folders, factors: dict | None = None, parts: dict | None = None
+) -> tuple[dict, dict]:
     """From finished run folders: (seconds an epoch, epochs at the end), each a median
     keyed by (task, method); the seconds also by task alone, for a method with no
-    finished run. Each stretch of a run is divided by its CPU's factor (`cpu_factors`;
-    1 for a CPU without one). Folders that cannot be read are passed over."""
-    factors = factors or {}
+    finished run. Each stretch of a run (`parts[folder]`, else read by `stretches`) is
+    divided by its CPU's factor (`cpu_factors`; 1 for a CPU without one). Folders that
+    cannot be read are passed over."""
+    factors, parts = factors or {}, parts or {}
     per_epoch, ended = defaultdict(list), defaultdict(list)
     for d in folders:
         try:
@@ -110,11 +113,11 @@ def finished_timings(folders, factors: dict | None = None) -> tuple[dict, dict]:
         # a copy (`same_as`) would count its source twice
         if not run["done"] or run["same_as"] or not _positive(epoch, wall):
             continue
-        parts = stretches(d)
+        mine = parts[d] if d in parts else stretches(d)
         secs = (
-            sum(t / factors.get(c, 1.0) for c, _, t in parts)
-            / sum(n for _, n, _ in parts)
-            if parts
+            sum(t / factors.get(c, 1.0) for c, _, t in mine)
+            / sum(n for _, n, _ in mine)
+            if mine
             else float(wall) / float(epoch)
         )
         per_epoch[run["env"], run["method"]].append(secs)
@@ -155,14 +158,13 @@ def estimate(cells, options: dict | None = None, here: str | None = None) -> dic
     done = [
         c.out for c in cells if c.action == "skip" and (c.out / "done.json").exists()
     ]
+    parts = {c.out: stretches(c.out) for c in cells}  # each run folder read once
     samples = [
-        (cpu_, (c.env, c.method), n, t)
-        for c in cells
-        for cpu_, n, t in stretches(c.out)
+        (cpu_, (c.env, c.method), n, t) for c in cells for cpu_, n, t in parts[c.out]
     ]
     factors = cpu_factors(samples, here)
-    per_epoch, ended = finished_timings(done, factors)
-    seen = {cpu_ for d in done for cpu_, _, _ in stretches(d)}
+    per_epoch, ended = finished_timings(done, factors, parts)
+    seen = {cpu_ for d in done for cpu_, _, _ in parts[d]}
     out = dict(cells=0, budget_h=0.0, finished_h=0.0, untimed=defaultdict(int))
     out.update(here=here, factors=factors, unscaled=sorted(seen - set(factors)))
     out["held"] = sum(c.action == "skip" and bool(c.hold) for c in cells)
