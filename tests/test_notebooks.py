@@ -27,6 +27,16 @@ def test_committed_without_outputs(path):
 
 
 @pytest.mark.parametrize("path", CHAPTERS, ids=os.path.basename)
+def test_every_cell_has_a_unique_id(path):
+    """nbformat 4.5 cells carry an id; without one every read warns
+    (MissingIDFieldWarning), and a future nbformat refuses the file."""
+    ids = [c.get("id") for c in json.load(open(path, encoding="utf-8"))["cells"]]
+    missing = [i for i, x in enumerate(ids) if not x]
+    assert not missing, f"cells {missing} have no id (nbformat.validator.normalize)"
+    assert len(set(ids)) == len(ids), "two cells share an id"
+
+
+@pytest.mark.parametrize("path", CHAPTERS, ids=os.path.basename)
 def test_code_cells_are_short(path):
     long = {
         i: n
