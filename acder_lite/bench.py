@@ -100,6 +100,10 @@ def run_bench(args) -> int:
     from .rollout import run_episodes
     from .trainer import Trainer
 
+    from .config import ConfigError
+
+    if args.cycles < 1:  # before the Config: bench's own option
+        raise ConfigError(f"cycles={args.cycles} is not allowed: an integer >= 1")
     both = args.update_dtype == "both"
     cfg = Config(
         env=args.env,

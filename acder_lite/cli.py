@@ -97,7 +97,13 @@ def cmd_train(args) -> int:
     from .trainer import Trainer
 
     given = _given(args)
+    if args.resume and args.out:
+        raise UsageError(
+            f"train: --out {args.out!r} and --resume {args.resume!r} exclude each "
+            "other; allowed: --out DIR for a new run, or --resume DIR to continue one"
+        )
     if args.resume:
+        _check_run_json(args.resume)  # before training: it is rewritten at the start
         ckpt_path = os.path.join(args.resume, "checkpoint.pt")
         ckpt = load_torch(ckpt_path) if os.path.exists(ckpt_path) else None
         later, note = packed.later_than(args.resume, ckpt)
@@ -157,6 +163,8 @@ def cmd_train(args) -> int:
                 f"or --resume {args.out} to continue it"
             )
         cfg = Config(**given)
+        cfg.resolve()  # the one-line error of a bad option, before a folder is made
+        _make_run_folder(args.out)
         out = args.out
         trainer = Trainer(cfg, out, command=_command_line(args.argv))
     from .precision import warning_if_slow
@@ -185,6 +193,54 @@ def cmd_train(args) -> int:
     return 0
 
 
+def _make_run_folder(out: str) -> None:
+    """Create the run folder `out` (and its parents), or raise UsageError in one line:
+    a file in the way, no permission, ..."""
+    from .io import folders_above
+
+    for p in [out, *folders_above(out)]:
+        if os.path.exists(p):
+            if not os.path.isdir(p):
+                raise UsageError(
+                    f"train: --out {out!r}: {p!r} is a file; "
+                    "allowed: a folder (or a path not yet there)"
+                )
+            break
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as e:
+        raise UsageError(
+            f"train: --out {out!r} cannot be made ({e.strerror}); "
+            "allowed: a folder you can write to"
+        ) from None
+
+
+def _check_run_json(run: str) -> None:
+    """A resumed run keeps its config.json's first command and adds its own
+    (`RunFiles.write_config`): one it cannot read is refused before anything is
+    trained or rewritten."""
+    import json
+
+    path = os.path.join(run, "config.json")
+    if not os.path.isfile(path):
+        return  # written anew
+    try:
+        with open(path, encoding="utf-8") as f:
+            d = json.load(f)
+    except (OSError, UnicodeDecodeError, ValueError) as e:
+        raise CheckpointError(
+            f"run folder {run!r}: its config.json cannot be read "
+            f"({type(e).__name__}); allowed: the config.json train wrote "
+            "(fix it, or move it away to have it written anew)"
+        ) from None
+    if not isinstance(d, dict):
+        raise CheckpointError(
+            f"run folder {run!r}: its config.json holds a {type(d).__name__}, not a "
+            "JSON object; allowed: the config.json train wrote (fix it, or move it "
+            "away to have it written anew)"
+        )
+
+
 def cmd_eval(args) -> int:
     import numpy as np
 
@@ -196,6 +252,8 @@ def cmd_eval(args) -> int:
         raise UsageError(
             f"eval: --episodes {args.episodes} is not allowed: an integer >= 1"
         )
+    if args.seed < 0:
+        raise UsageError(f"eval: --seed {args.seed} is not allowed: an integer >= 0")
     # runs nothing from the file; checks the policy's keys and shapes
     ckpt = load_torch(args.checkpoint)
     pol = ckpt["policy"]

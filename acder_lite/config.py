@@ -8,6 +8,8 @@ field here, with the default DESIGN.md fixes.
 from __future__ import annotations
 
 import dataclasses
+import math
+import numbers
 from dataclasses import dataclass, field, fields
 
 ENV_IDS = (
@@ -433,6 +435,12 @@ class Config:
                 f"{name}={getattr(self, name)!r} is not allowed: {allowed}"
             )
 
+        for f in fields(self):  # a number of the wrong type (config.json, a plan)
+            v, kind = getattr(self, f.name), _NUMBER_TYPES.get(str(f.type))
+            if kind is None or (v is None and str(f.type).endswith("| None")):
+                continue
+            if isinstance(v, bool) or not isinstance(v, kind[0]):
+                bad(f.name, kind[1])
         if self.env not in ENV_IDS:
             bad("env", "one of " + ", ".join(ENV_IDS))
         if self.method in LEGACY_METHODS:
@@ -477,11 +485,13 @@ class Config:
         ):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
                 bad(name, "an integer >= 0")
+        if not 0 <= self.seed < 2**64:  # torch.manual_seed's range; gym's is >= 0
+            bad("seed", "an integer in [0, 2**64)")
         if self.buffer_size < 1000:
             bad("buffer_size", "an integer >= 1000")
         for name in ("lr_actor", "lr_critic", "sicm_lr"):
-            if not getattr(self, name) > 0:
-                bad(name, "a number > 0")
+            if not 0 < getattr(self, name) < math.inf:
+                bad(name, "a finite number > 0")
         for name in ("gamma", "polyak"):
             if name in PRESET_FIELDS and getattr(self, name) is None:
                 continue
@@ -514,6 +524,22 @@ class Config:
         ):
             if not getattr(self, name) >= 0:
                 bad(name, "a number >= 0")
+        # inf here: a NaN loss, normaliser or priority, or (the clips) a policy.pt
+        # that `io.check_policy` refuses; 0 for norm_eps: a constant entry is 0/0
+        for name in (
+            "action_l2",
+            "clip_obs",
+            "norm_clip",
+            "per_eps",
+            "ebp_w_potential",
+            "ebp_w_kinetic",
+        ):
+            if not getattr(self, name) < math.inf:
+                bad(name, "a finite number >= 0")
+        if not 0 < self.norm_eps < math.inf:
+            bad("norm_eps", "a finite number > 0")
+        if not self.icm_beta <= 1:
+            bad("icm_beta", "a number in [0, 1] (the forward loss's weight)")
         if self.eta is not None and not 0 < self.eta < 1:
             bad("eta", "a number in (0, 1) (paper, Eq. 4)")
         if self.alpha0 is not None and not 0 <= self.alpha0 <= 1:
@@ -553,6 +579,17 @@ class Config:
                 f"allowed: {', '.join(sorted(known))}"
             )
         return cls(**d)
+
+
+_NUMBER_TYPES = {
+    "int": (numbers.Integral, "an integer"),
+    "int | None": (numbers.Integral, "an integer"),
+    "float": (numbers.Real, "a number"),
+    "float | None": (numbers.Real, "a number"),
+}
+"""A number field's annotation -> (the types its value may have, numpy's included;
+what to call them in `Config.validate`'s one line). A bool is no number here: True
+is no seed."""
 
 
 def upgrade_legacy(d: dict) -> dict:

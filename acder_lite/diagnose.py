@@ -38,7 +38,14 @@ import torch
 from . import envs as E
 from .config import OBJECT_ENVS, Config, ConfigError
 from .curiosity import SICM
-from .io import CheckpointError, json_ready, load_torch, write_json
+from .io import (
+    CheckpointError,
+    check_output,
+    json_ready,
+    load_torch,
+    write_error,
+    write_json,
+)
 
 
 def state_names(trainer) -> list[str]:
@@ -562,8 +569,15 @@ def run(args) -> int:
         raise ConfigError(f"episodes={args.episodes} is not allowed: an integer >= 0")
     if args.top < 1:
         raise ConfigError(f"top={args.top} is not allowed: an integer >= 1")
+    if args.seed is not None and args.seed < 0:
+        raise ConfigError(f"seed={args.seed} is not allowed: an integer >= 0")
+    if args.json is not None:  # before the work, not after it
+        check_output(args.json, "json")
     d = diagnose(args.run, args.batches, args.episodes, args.seed, args.top)
     print(to_text(d))
     if args.json:
-        write_json(args.json, json_ready(d))  # a share of no rows: null, not NaN
+        try:
+            write_json(args.json, json_ready(d))  # a share of no rows: null, not NaN
+        except OSError as e:
+            raise write_error("json", args.json, e) from None
     return 0

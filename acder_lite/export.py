@@ -352,6 +352,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     from .robust import load_policy
 
+    from .io import check_output, write_error
+
     pol, path = load_policy(args.policy)
     for name in ("out", "onnx"):
         target = getattr(args, name)
@@ -359,16 +361,31 @@ def run(args) -> int:
             raise ConfigError(
                 f"{name}={target!r} is the policy file itself; allowed: another file"
             )
+    if args.onnx is not None and os.path.abspath(args.onnx) == os.path.abspath(
+        args.out
+    ):
+        raise ConfigError(
+            f"onnx={args.onnx!r} is the --out file too; allowed: another file"
+        )
+    for name in ("out", "onnx"):  # an export never replaces a file
+        if getattr(args, name) is not None:
+            check_output(getattr(args, name), name, (path,), overwrite=False)
     if args.onnx:
         check_onnx()  # before anything is written
-    meta = export_torchscript(pol, args.out, path)
+    try:
+        meta = export_torchscript(pol, args.out, path)
+    except OSError as e:
+        raise write_error("out", args.out, e) from None
     line = (
         f"export: {args.out} ({meta['env']}, {meta['method']}, obs {meta['obs']}: "
         f"{len(meta['obs_names'])} observation entries, {len(meta['goal_names'])} "
         "goal entries)"
     )
     if args.onnx:
-        export_onnx(pol, args.onnx, path)
+        try:
+            export_onnx(pol, args.onnx, path)
+        except OSError as e:
+            raise write_error("onnx", args.onnx, e) from None
         line += f"; ONNX: {args.onnx}"
     print(line)
     return 0

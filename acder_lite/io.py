@@ -47,6 +47,60 @@ def _atomic(path: str, write) -> None:
         raise
 
 
+RUN_FILES = ("checkpoint.pt", "policy.pt", "config.json", "progress.csv", "done.json")
+"""The files train writes in a run folder (`runfiles.RunFiles`)."""
+
+
+def check_output(
+    path: str, option: str, inputs: tuple = (), overwrite: bool = True
+) -> None:
+    """Raise ConfigError (one line naming `option`) unless a command may write its
+    output `path` (checked before any work): not empty, not a folder, no file where a
+    folder above it should be, not one of the command's `inputs`, not a run's own file
+    (`RUN_FILES`), and (overwrite=False) not there yet. Nothing is created."""
+    from .config import ConfigError
+
+    def bad(what, allowed="another file"):
+        raise ConfigError(f"{option}={path!r} {what}; allowed: {allowed}")
+
+    if not path:
+        bad("is empty", "a file path")
+    if os.path.isdir(path):
+        bad("is a folder", "a file path (in a folder)")
+    for up in folders_above(path):
+        if os.path.exists(up):
+            if not os.path.isdir(up):
+                bad(f"lies under {up!r}, a file", "a path in a folder")
+            break
+    if any(os.path.abspath(path) == os.path.abspath(i) for i in inputs if i):
+        bad("is the input file itself")
+    if os.path.exists(path):
+        if os.path.basename(path) in RUN_FILES:
+            bad("would overwrite a run's file", "a file outside the run's files")
+        if not overwrite:
+            bad("already exists", "a file not yet there (nothing is overwritten)")
+
+
+def folders_above(path: str) -> list[str]:
+    """The folders above `path`, nearest first, up to the root."""
+    out, p = [], os.path.dirname(os.path.abspath(path))
+    while p and p not in out:
+        out.append(p)
+        p = os.path.dirname(p)
+    return out
+
+
+def write_error(option: str, path: str, e: OSError):
+    """The one-line error of an output that could not be written
+    (to raise from the OSError `e`)."""
+    from .config import ConfigError
+
+    return ConfigError(
+        f"{option}={path!r} cannot be written ({e.strerror or type(e).__name__}); "
+        "allowed: a file in a folder you can write to"
+    )
+
+
 def json_ready(v):
     """`v` with inf and NaN (which JSON has not) as None, through lists and dicts."""
     if isinstance(v, float) and not math.isfinite(v):
@@ -231,6 +285,8 @@ def load_torch(path: str) -> dict:
     for a checkpoint, every part of `CHECKPOINT_KEYS`. Anything else raises
     CheckpointError: one line naming the file.
     """
+    if os.path.isdir(path):
+        raise CheckpointError(f"checkpoint {path!r} is a folder; {ALLOWED}")
     if not os.path.isfile(path):
         raise CheckpointError(f"checkpoint {path!r} does not exist")
     with open(path, "rb") as f:

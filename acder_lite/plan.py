@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import itertools
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from . import packed, same_as
@@ -173,6 +173,10 @@ def read_plan(path: str | Path) -> list[Cell]:
         raise PlanError(f"plan {str(path)!r} cannot be read: {e.strerror}") from None
     except tomllib.TOMLDecodeError as e:
         raise PlanError(f"plan {str(path)!r} is not valid TOML: {e}") from None
+    except UnicodeDecodeError:
+        raise PlanError(
+            f"plan {str(path)!r} is not valid TOML: not UTF-8 text"
+        ) from None
     groups = doc.get("group")
     if not isinstance(groups, list) or not groups:
         raise PlanError(
@@ -184,9 +188,17 @@ def read_plan(path: str | Path) -> list[Cell]:
             f"plan {str(path)!r}: [defaults] may hold only: "
             f"{', '.join(sorted(_GROUP_KEYS))}"
         )
+    problem = _check_group(defaults)
+    if problem:
+        raise PlanError(f"plan {str(path)!r}, [defaults]: {problem}")
     queues: dict[str, list[Cell]] = {}
     for i, g in enumerate(groups, 1):
         where = f"plan {str(path)!r}, group {i}"
+        if not isinstance(g, dict):
+            raise PlanError(f"{where} is {g!r}, not a table; allowed: [[group]] tables")
+        problem = _check_group(g)
+        if problem:
+            raise PlanError(f"{where}: {problem}")
         g = {
             **defaults,
             **g,
@@ -253,16 +265,47 @@ def read_plan(path: str | Path) -> list[Cell]:
     ]
 
 
+_TEXT_KEYS = ("root", "name", "queue", "hold", "note", "same_as")
+# Config fields a group's `config` may not set: the cell's own (its envs, methods and
+# seeds say them) and what `resolve` fills
+_NOT_IN_CONFIG = ("env", "method", "seed", "switches", "update_dtype_why", "device_why")
+
+
+def _check_group(g: dict) -> str | None:
+    """A group's (or [defaults]') keys of the wrong type, a `name` that is not one
+    folder, a `config` field it may not set: one line, or None."""
+    for key in _TEXT_KEYS:
+        if key in g and not isinstance(g[key], str):
+            return f"{key} is {g[key]!r}, not a string; allowed: a string"
+    name = g.get("name")
+    if name is not None and (name in ("", ".", "..") or "/" in name or "\\" in name):
+        return f"name {name!r} is not one folder name; allowed: e.g. 'acder-raw'"
+    options = g.get("config", {})
+    if not isinstance(options, dict):
+        return f"config is {options!r}, not a table; allowed: a table of Config fields"
+    known = {f.name for f in fields(Config)}
+    for key in options:
+        if key in _NOT_IN_CONFIG:
+            return (
+                f"config may not set {key!r} (the cell's envs, methods and seeds "
+                "do, or resolve fills it)"
+            )
+        if key not in known:
+            allowed = ", ".join(sorted(known - set(_NOT_IN_CONFIG)))
+            return f"config: unknown field {key!r}; allowed: {allowed}"
+    return None
+
+
 def check_names(envs, methods, seeds) -> str | None:
     """Unknown names and repeated seeds: what Config cannot see,
     since it checks one cell."""
     for env in envs:
-        if env not in ENV_IDS:
+        if not isinstance(env, str) or env not in ENV_IDS:
             return f"unknown env {env!r}; allowed: {', '.join(ENV_IDS)}"
     for method in methods:
-        if method not in METHODS:
+        if not isinstance(method, str) or method not in METHODS:
             return f"unknown method {method!r}; allowed: {', '.join(METHODS)}"
-    if any(not isinstance(s, int) or s < 0 for s in seeds):
+    if any(isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in seeds):
         return "seeds must be integers >= 0"
     if len(set(seeds)) != len(seeds):
         return "seeds must be distinct"

@@ -69,7 +69,14 @@ import numpy as np
 
 from . import envs as E
 from .config import ENV_IDS, OBJECT_ENVS, OBS_SETS, ConfigError
-from .io import CheckpointError, load_torch, write_csv, write_json
+from .io import (
+    CheckpointError,
+    check_output,
+    load_torch,
+    write_csv,
+    write_error,
+    write_json,
+)
 from .observations import indices, policy_env, policy_obs
 from .rollout import Policy, run_episodes
 
@@ -721,7 +728,20 @@ def run(args) -> int:
     if args.obs is not None and args.obs not in OBS_SETS:
         allowed = " or ".join(repr(x) for x in OBS_SETS)
         raise ConfigError(f"obs={args.obs!r} is not allowed: {allowed}")
+    if args.seed < 0:
+        raise ConfigError(f"seed={args.seed} is not allowed: an integer >= 0")
+    if (
+        args.json
+        and args.csv
+        and os.path.abspath(args.json) == os.path.abspath(args.csv)
+    ):
+        raise ConfigError(
+            f"csv={args.csv!r} is the --json file too; allowed: another file"
+        )
     pol, path = load_policy(args.policy)
+    for name in ("json", "csv"):  # before the trials, not after them
+        if getattr(args, name) is not None:
+            check_output(getattr(args, name), name, (path,))
     # the task and the observation set asked for first, then the knobs on that task
     policy, obs = policy_act(pol, path, args.env, args.obs)
     knobs = parse_perturb(args.perturb, pol["env"], E.horizon(pol["env"]))
@@ -731,8 +751,13 @@ def run(args) -> int:
     )
     result = dict(policy=path, method=pol["method"], **result, versions=versions())
     print(to_text(result))
-    if args.json:
-        write_json(args.json, result)
-    if args.csv:
-        write_csv(args.csv, result["rows"], CSV_COLUMNS)
+    for name, write in (
+        ("json", lambda: write_json(args.json, result)),
+        ("csv", lambda: write_csv(args.csv, result["rows"], CSV_COLUMNS)),
+    ):
+        if getattr(args, name):
+            try:
+                write()
+            except OSError as e:
+                raise write_error(name, getattr(args, name), e) from None
     return 0

@@ -35,6 +35,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import re
 import shlex
 import sys
 import time
@@ -186,6 +187,34 @@ def check_args(args) -> str | None:
         return (
             "--train-args may not hold --out or --resume; the sweep sets them per cell"
         )
+    return _check_train_args(extra, args)
+
+
+def _check_train_args(extra: list[str], args) -> str | None:
+    """--train-args as train reads them, checked before any cell starts (else every
+    cell would fail in its train.log): options train has, values Config allows, none
+    of the cell's own (env, method, seed)."""
+    from .cli import UsageError, _given, build_parser
+
+    if any(a in ("-h", "--help") for a in extra):
+        return "--train-args may not hold --help; see `train --help`"
+    try:
+        targs = build_parser().parse_args(["train", *extra, "--out", "-"])
+    except UsageError as e:
+        return (
+            f"--train-args: {re.sub(r'^python -m acder_lite( train)?: ', '', str(e))}"
+        )
+    given = _given(targs)
+    own = [k for k in ("env", "method", "seed") if k in given]
+    if own:
+        return (
+            f"--train-args may not hold --{own[0]}; the sweep sets it per cell "
+            "(--envs, --methods, --seeds or the plan)"
+        )
+    try:  # train reads --train-args after the sweep's options: theirs win
+        Config(env=ENV_IDS[0], **{**passed_options(args), **given}).resolve()
+    except ConfigError as e:
+        return f"--train-args: {e}"
     return None
 
 

@@ -21,7 +21,7 @@ import math
 import sys
 from pathlib import Path
 
-from .config import TASK_PRESETS
+from .config import TASK_PRESETS, ConfigError
 from .report import (
     ABLATIONS,
     PAPER_EPISODES_PER_EPOCH,
@@ -623,22 +623,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def read_planned(args, root: Path) -> dict:
-    """The plan's seed counts, or {} (with one line on stderr if the plan
-    cannot be read)."""
+    """The plan's seed counts, or {} (with one line on stderr if RESULTS/plan.toml
+    cannot be read). A --plan FILE that cannot be read is an error (ConfigError)."""
     from .plan import PlanError
 
     plan = Path(args.plan) if args.plan else root / "plan.toml"
+    if args.plan and not plan.is_file():
+        what = "is a folder" if plan.is_dir() else "does not exist"
+        raise ConfigError(
+            f"table: --plan {str(plan)!r} {what}; allowed: a plan file (TOML), or "
+            "no --plan for RESULTS/plan.toml if there is one"
+        )
     if not plan.exists():
-        if args.plan:
-            print(
-                f"table: plan {str(plan)!r} does not exist; "
-                "seed counts are the seeds found",
-                file=sys.stderr,
-            )
         return {}
     try:
         return planned_cells(plan, root)
     except PlanError as e:
+        if args.plan:
+            raise ConfigError(f"table: --plan: {e}") from None
         print(f"table: {e}; seed counts are the seeds found", file=sys.stderr)
         return {}
 

@@ -53,6 +53,14 @@ def one_line_error(p, *needles):
         (["--compile-update=yes"], ["--compile-update", "ignored explicit argument"]),
         (["--reward-bonus", "2"], ["reward_bonus=2.0", "[-1, 1]"]),
         (["--reward-bonus", "nan"], ["reward_bonus=nan", "[-1, 1]"]),
+        # a traceback from gym or torch before, or a run that trained on NaNs
+        (["--seed", "-1"], ["seed=-1", "[0, 2**64)"]),
+        (["--seed", str(2**64)], ["seed=", "[0, 2**64)"]),
+        (["--lr-critic", "inf"], ["lr_critic=inf", "finite number > 0"]),
+        (["--norm-eps", "0"], ["norm_eps=0.0", "finite number > 0"]),
+        (["--norm-clip", "inf"], ["norm_clip=inf", "finite number >= 0"]),
+        (["--clip-obs", "inf"], ["clip_obs=inf", "finite number >= 0"]),
+        (["--icm-beta", "2"], ["icm_beta=2.0", "[0, 1]"]),
     ],
 )
 def test_train_bad_input(cli, tmp_path, args, needles):
@@ -60,6 +68,23 @@ def test_train_bad_input(cli, tmp_path, args, needles):
     p = cli("train", "--env", "FetchReach-v4", *args, "--out", str(out))
     one_line_error(p, *needles)
     assert not out.exists()
+
+
+def test_an_out_that_cannot_be_a_run_folder(cli, tmp_path):
+    """A file where the run folder (or a folder above it) should be, or --out beside
+    --resume: one line, and the file is untouched."""
+    f = tmp_path / "notes.txt"
+    f.write_text("keep me")
+    for out, needles in (
+        (f, ["--out", "is a file", "allowed: a folder"]),
+        (f / "run", ["--out", "is a file", "allowed: a folder"]),
+    ):
+        p = cli("train", "--env", "FetchReach-v4", *TINY, "--out", str(out))
+        one_line_error(p, *needles)
+    p = cli("train", "--out", str(tmp_path / "a"), "--resume", str(tmp_path / "b"))
+    one_line_error(p, "--out", "--resume", "exclude each other")
+    assert f.read_text() == "keep me" and os.listdir(tmp_path) == ["notes.txt"]
+    one_line_error(cli("bench", "--cycles", "0"), "cycles=0", ">= 1")
 
 
 def test_protocol_settings_reach_config_json(cli, tmp_path):
@@ -123,6 +148,69 @@ def test_existing_run_is_not_overwritten_and_checkpoint_errors(cli, tmp_path):
     one_line_error(p, "does not exist")
     p = cli("eval", "--checkpoint", str(out / "checkpoint.pt"), "--episodes", "0")
     one_line_error(p, "--episodes", ">= 1")
+    p = cli("eval", "--checkpoint", str(out / "policy.pt"), "--seed", "-1")
+    one_line_error(p, "--seed -1", ">= 0")
+    one_line_error(cli("eval", "--checkpoint", str(out)), "is a folder", "policy.pt")
+    assert {f: (out / f).read_bytes() for f in os.listdir(out)} == before
+    _bad_input_on_a_finished_run(cli, tmp_path, out)
+
+
+def _bad_input_on_a_finished_run(cli, tmp_path, out):
+    """The commands that read a run, given bad input next to a good run: one line each,
+    and nothing already written changes."""
+    import shutil
+
+    keep = tmp_path / "existing.ts"
+    keep.write_text("an earlier export")
+    # a resumed run rewrites config.json at its start: one it cannot read is refused
+    # before anything is trained or written
+    for text in ('{"config": ', "[1, 2]"):
+        broken = tmp_path / "broken"
+        shutil.rmtree(broken, ignore_errors=True)
+        shutil.copytree(out, broken)
+        (broken / "config.json").write_text(text)
+        files = {f: (broken / f).read_bytes() for f in os.listdir(broken)}
+        p = cli("train", "--resume", str(broken), "--epochs", "2", "--quiet")
+        one_line_error(p, "config.json", "allowed:")
+        assert {f: (broken / f).read_bytes() for f in os.listdir(broken)} == files
+    before = {f: (out / f).read_bytes() for f in os.listdir(out)}
+    for args, needles in (
+        (("export", str(out), "--out", str(keep)), ["out=", "already exists"]),
+        (("export", str(out), "--out", str(tmp_path)), ["out=", "is a folder"]),
+        (
+            ("export", str(out), "--out", str(keep / "p.ts")),
+            ["out=", "a file", "allowed: a path in a folder"],
+        ),
+        (
+            ("export", str(out), "--out", str(tmp_path / "n.ts"), "--onnx")
+            + (str(tmp_path / "n.ts"),),
+            ["onnx=", "the --out file too"],
+        ),
+        (
+            ("diagnose", str(out), "--json", str(out / "checkpoint.pt")),
+            ["json=", "would overwrite a run's file"],
+        ),
+        (("diagnose", str(out), "--seed", "-1", "--episodes", "1"), ["seed=-1"]),
+        (("robust", str(out), "--seed", "-1"), ["seed=-1", ">= 0"]),
+        (
+            ("robust", str(out), "--csv", str(out / "progress.csv")),
+            ["csv=", "would overwrite a run's file"],
+        ),
+    ):
+        one_line_error(cli(*args), *needles)
+    assert keep.read_text() == "an earlier export"
+    assert not (tmp_path / "n.ts").exists()
+    assert {f: (out / f).read_bytes() for f in os.listdir(out)} == before
+    # table: an explicit --plan that cannot be read is an error, not a warning
+    results = tmp_path / "results"
+    shutil.copytree(out, results / "FetchReach-v4" / "her" / "seed0")
+    (tmp_path / "bytes.toml").write_bytes(b"\xff\xfe\x00 not text")
+    for plan, needles in (
+        (tmp_path / "missing.toml", ["--plan", "does not exist", "allowed:"]),
+        (tmp_path / "bytes.toml", ["--plan", "not valid TOML", "UTF-8"]),
+    ):
+        p = cli("table", "--results", str(results), "--plan", str(plan))
+        one_line_error(p, *needles)
 
 
 def test_ctrl_c_leaves_a_checkpoint_to_resume(tmp_path):

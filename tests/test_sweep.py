@@ -185,6 +185,19 @@ def test_train_argv(grid):
             ["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--out x"],
             "may not hold --out",
         ),
+        # checked as train reads them, before any cell starts and fails alike
+        (
+            ["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--bogus 1"],
+            "--train-args: unrecognized arguments: --bogus",
+        ),
+        (
+            ["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--gamma 2"],
+            "--train-args: gamma=2.0 is not allowed",
+        ),
+        (
+            ["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--seed 3"],
+            "may not hold --seed",
+        ),
     ],
 )
 def test_argument_errors(tmp_path, capsys, argv, msg):
@@ -486,6 +499,52 @@ def test_read_plan(tmp_path):
         ),
         ("[[group]\n", "not valid TOML"),
         ("x = 1\n", "no [[group]] tables"),
+        # tracebacks before (TypeError, UnicodeDecodeError), or a cell that trained
+        # another env, seed or folder than the plan's
+        ("group = [1, 2]\n", "group 1 is 1, not a table"),
+        (
+            "[defaults]\nconfig = 5\n[[group]]\nenvs = ['FetchReach-v4']\n"
+            "methods = ['her']\nseeds = [0]\n",
+            "[defaults]: config is 5, not a table",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = [['her']]\nseeds = [0]\n",
+            "unknown method ['her']",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
+            "name = 5\n",
+            "name is 5, not a string",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
+            "root = 5\n",
+            "root is 5, not a string",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
+            "name = '../../elsewhere'\n",
+            "is not one folder name",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [true]\n",
+            "seeds must be integers >= 0",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
+            "config = { env = 'FetchPush-v4' }\n",
+            "config may not set 'env'",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
+            "config = { gamma = 'x' }\n",
+            "gamma='x' is not allowed: a number",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
+            "config = { nope = 1 }\n",
+            "config: unknown field 'nope'",
+        ),
     ],
 )
 def test_bad_plan(tmp_path, capsys, text, msg):
@@ -497,6 +556,15 @@ def test_bad_plan(tmp_path, capsys, text, msg):
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "plan.toml"
     ]  # nothing written
+
+
+def test_a_plan_that_is_not_text(tmp_path, capsys):
+    path = tmp_path / "plan.toml"
+    path.write_bytes(b"\xff\xfe[[group]]\x00")
+    assert S.run(parse(["--plan", str(path), "--dry-run"])) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "not valid TOML: not UTF-8 text" in err
+    assert "Traceback" not in err and str(path) in err
 
 
 def test_the_committed_plan_reads():
