@@ -73,7 +73,8 @@ def add_config_options(p: argparse.ArgumentParser) -> None:
         )
 
 
-def _given(args) -> dict:
+def given_options(args) -> dict:
+    """The Config fields a parsed `train` command line sets (the options given)."""
     return {
         f.name: getattr(args, f.name)
         for f in dataclasses.fields(Config)
@@ -96,7 +97,7 @@ def cmd_train(args) -> int:
     from .io import load_torch
     from .trainer import Trainer
 
-    given = _given(args)
+    given = given_options(args)
     if args.resume and args.out:
         raise UsageError(
             f"train: --out {args.out!r} and --resume {args.resume!r} exclude each "

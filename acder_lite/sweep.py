@@ -194,7 +194,7 @@ def _check_train_args(extra: list[str], args) -> str | None:
     """--train-args as train reads them, checked before any cell starts (else every
     cell would fail in its train.log): options train has, values Config allows, none
     of the cell's own (env, method, seed)."""
-    from .cli import UsageError, _given, build_parser
+    from .cli import UsageError, build_parser, given_options
 
     if any(a in ("-h", "--help") for a in extra):
         return "--train-args may not hold --help; see `train --help`"
@@ -204,7 +204,7 @@ def _check_train_args(extra: list[str], args) -> str | None:
         return (
             f"--train-args: {re.sub(r'^python -m acder_lite( train)?: ', '', str(e))}"
         )
-    given = _given(targs)
+    given = given_options(targs)
     own = [k for k in ("env", "method", "seed") if k in given]
     if own:
         return (
