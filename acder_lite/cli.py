@@ -1,4 +1,5 @@
-"""`python -m acder_lite {train,eval,bench,sweep,pack,table,diagnose,robust,export}`.
+"""`python -m acder_lite COMMAND`: train, evaluate, time, sweep and export ACDER and
+its baselines on the Fetch tasks; `python -m acder_lite COMMAND --help` for one.
 
 Bad input exits with code 2 and one line naming the field and what is allowed; no
 traceback.
@@ -31,6 +32,20 @@ _RESUMABLE = {
 
 class UsageError(Exception):
     pass
+
+
+COMMANDS = {
+    "train": "train one (env, method, seed) into a run folder, or resume one",
+    "eval": "a trained policy's success rate on deterministic test episodes",
+    "bench": "time simulation, the update and a training episode here",
+    "sweep": "train a grid of runs as Ray tasks, here or on a cluster",
+    "pack": "shrink unfinished runs' checkpoints to commit them",
+    "table": "Table I from the runs, beside the paper's numbers",
+    "diagnose": "S-ICM's novelty, the start pool, how a policy moves the object",
+    "robust": "a policy's success under a real arm's noise and delays",
+    "export": "a policy as one TorchScript file that needs no acder_lite",
+}
+"""Each command's line in `python -m acder_lite --help`."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -290,10 +305,16 @@ def cmd_bench(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="python -m acder_lite", description=__doc__)
-    sub = p.add_subparsers(dest="cmd", parser_class=_Parser, required=True)
+    p = _Parser(
+        prog="python -m acder_lite",
+        description=__doc__.replace("`", ""),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = p.add_subparsers(
+        dest="cmd", parser_class=_Parser, required=True, metavar="COMMAND"
+    )
 
-    t = sub.add_parser("train", help="train one (env, method, seed)")
+    t = sub.add_parser("train", help=COMMANDS["train"], description=COMMANDS["train"])
     add_config_options(t)
     t.add_argument(
         "--out", help="run folder: progress.csv, config.json, checkpoint.pt, policy.pt"
@@ -306,7 +327,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_train)
 
-    e = sub.add_parser("eval", help="success rate of a trained policy")
+    e = sub.add_parser("eval", help=COMMANDS["eval"], description=COMMANDS["eval"])
     e.add_argument("--checkpoint", required=True, help="checkpoint.pt or policy.pt")
     e.add_argument("--episodes", type=int, default=10)
     e.add_argument(
@@ -317,9 +338,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--seed", type=int, default=12345)
     e.set_defaults(func=cmd_eval)
 
-    b = sub.add_parser(
-        "bench", help="time simulation and training per episode (paper protocol)"
-    )
+    b = sub.add_parser("bench", help=COMMANDS["bench"], description=COMMANDS["bench"])
     b.add_argument("--env", default="FetchPush-v4")
     b.add_argument("--method", default="her")
     b.add_argument("--workers", type=int, default=4)
@@ -362,7 +381,11 @@ def build_parser() -> argparse.ArgumentParser:
         ("robust", robust),
         ("export", export),
     ):
-        s = sub.add_parser(name, help=mod.__doc__.strip().splitlines()[0])
+        s = sub.add_parser(
+            name,
+            help=COMMANDS[name],
+            description=mod.__doc__.strip().split("\n\n")[0],  # its first paragraph
+        )
         mod.add_arguments(s)
         s.set_defaults(func=mod.run)
     return p

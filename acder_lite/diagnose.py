@@ -1,4 +1,4 @@
-"""diagnose a run: S-ICM's novelty, the start pool, how the policy moves the object
+"""Diagnose a run: S-ICM's novelty, the start pool, how the policy moves the object
 
 `python -m acder_lite diagnose results/FetchPush-v4/acder/seed4` loads the run's
 `checkpoint.pt` (a run folder that still holds one: not a copied `same_as` cell, and
@@ -548,7 +548,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=int,
         default=0,
         help="instead, roll out the run's policy.pt for N test episodes and report how "
-        "it moves the object (tasks with an object; needs no checkpoint)",
+        "it moves the object (tasks with an object; needs no checkpoint). The 4 test "
+        "envs step together, so N is rounded up to a multiple of 4",
     )
     parser.add_argument(
         "--seed", type=int, default=12345, help="seed of the test envs for --episodes"

@@ -1,4 +1,4 @@
-"""export: a trained policy as one TorchScript file that runs without acder_lite
+"""A trained policy as one TorchScript file that runs without acder_lite
 
 `python -m acder_lite export results/FetchPush-v4/acder/seed0/policy.pt --out push.ts`
 writes the actor with everything between the sensors and the network baked in, in the

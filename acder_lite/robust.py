@@ -1,4 +1,4 @@
-"""robust: a policy's success under what a real arm brings, a bench for the robot
+"""A policy's success under what a real arm brings, a bench for the robot
 
 `python -m acder_lite robust results/FetchPush-v4/acder/seed0` evaluates the run's
 policy over N trials (default 20, the paper's count) at a tolerance (default 0.05 m),

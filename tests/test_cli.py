@@ -295,3 +295,20 @@ def test_bench_both_dtypes_ends_with_the_bench_line(cli):
     one_line_error(
         cli("bench", "--update-dtype", "float16"), "--update-dtype", "bfloat16"
     )
+
+
+def test_help_lists_every_command_with_its_line(capsys):
+    """`--help` names each command once with its `cli.COMMANDS` line, and every
+    command's own `--help` opens with a description (a command without one fails)."""
+    from acder_lite import cli
+
+    with pytest.raises(SystemExit) as e:
+        cli.build_parser().parse_args(["--help"])
+    assert e.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())  # argparse wraps the lines
+    parser = cli.build_parser()
+    (sub,) = [a for a in parser._actions if a.dest == "cmd"]
+    assert set(sub.choices) == set(cli.COMMANDS)
+    for name, line in cli.COMMANDS.items():
+        assert f"{name} {line}" in out
+        assert sub.choices[name].description, name
