@@ -322,7 +322,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument(
         "--resume",
         metavar="DIR",
-        help="continue the run in DIR from its last checkpoint",
+        help="continue the run in DIR from its last checkpoint, which is the run's "
+        "record: progress.csv is rewritten from the checkpoint's rows (rows logged "
+        "after it are dropped, as the same numbers come again)",
     )
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_train)
