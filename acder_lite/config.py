@@ -316,6 +316,10 @@ class Config:
     """EBP: weight of potential energy."""
     ebp_w_kinetic: float = 1.0
     """EBP: weight of kinetic energy."""
+    ebp_temperature: float | None = None
+    """EBP: None (the default) samples episodes exactly in proportion to their energy; a
+    number T > 0 first raises each energy to the power 1/(T + 0.01), as Zhao & Tresp's
+    code does (its default T = 1: an exponent of 1/1.01; departure 22)."""
 
     # --- engineering
     threads: int = 2
@@ -538,6 +542,8 @@ class Config:
                 bad(name, "a finite number >= 0")
         if not 0 < self.norm_eps < math.inf:
             bad("norm_eps", "a finite number > 0")
+        if self.ebp_temperature is not None and not 0 < self.ebp_temperature < math.inf:
+            bad("ebp_temperature", "a finite number > 0, or unset (exponent 1)")
         if not self.icm_beta <= 1:
             bad("icm_beta", "a number in [0, 1] (the forward loss's weight)")
         if self.eta is not None and not 0 < self.eta < 1:

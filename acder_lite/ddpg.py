@@ -108,8 +108,8 @@ class DDPG:
 
     def update(self, batch: dict, clip_return, weights=None) -> dict:
         """One gradient step of critic and actor, both computed with the critic before
-        its step (as Baselines does in one session run). Returns losses and |TD| for
-        PER.
+        its step (as Baselines does in one session run). Returns the losses and the
+        signed TD error y - Q(s, a) per row (PER takes its absolute value).
 
         The two losses share no trained tensor (the actor's sees the critic through
         `critic_frozen`), so they may run at once: with `actor_thread` the actor's

@@ -287,15 +287,16 @@ def _rank(x: np.ndarray, method: str) -> np.ndarray:
 
 class EnergyPrioritizer:
     """Trajectories sampled with probability proportional to their energy (Zhao & Tresp;
-    their 'none' rank method): P(e) = s_e^(1/temperature') / sum, s_e = E_e + eps.
+    their 'none' rank method): P(e) = (s_e + eps) / sum, s_e = E_e^(1/temperature').
 
     Their code samples with p ~ s^(1/(temperature + 0.01)) (default temperature 1, so an
     exponent of 1/1.01) and has no eps (an all-zero buffer gives NaN). Here
     `temperature=None` (default) means exponent 1 (exactly proportional); pass
-    `temperature=1.0` to reproduce their exponent. `rank_method` in {"none", "dense",
-    "min", "average"} reproduces their rank options: s_e = rank(E_e) - 1 over the stored
-    episodes (the lowest-energy episode then has only eps). Each sampled episode's time
-    step is drawn uniformly by the HER sampler, as in theirs.
+    `temperature=1.0` (`Config.ebp_temperature`) to reproduce their exponent.
+    `rank_method` in {"none", "dense", "min", "average"} reproduces their rank options:
+    s_e = rank(E_e) - 1 over the stored episodes (the lowest-energy episode then has
+    only eps). Each sampled episode's time step is drawn uniformly by the HER sampler,
+    as in theirs.
     """
 
     def __init__(

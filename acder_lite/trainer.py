@@ -151,7 +151,9 @@ class Trainer:
         elif sw["priority"] == "ebp":
             from .priority import EnergyPrioritizer
 
-            self.ebp = EnergyPrioritizer(self.buffer.size)
+            self.ebp = EnergyPrioritizer(
+                self.buffer.size, temperature=cfg.ebp_temperature
+            )
         self.clip_return = target_clip(
             cfg.target_clip, sw, cfg.eta, cfg.gamma, cfg.reward_bonus
         )
@@ -367,7 +369,7 @@ class Trainer:
         w = batch["weights"]
         w = None if w is None else torch.from_numpy(w).to(self.device)
         out = self.agent.update(tb, self.clip_return, w)
-        if self.per is not None:  # the sum tree is numpy: |TD| comes back once, after
+        if self.per is not None:  # the sum tree is numpy: TD errors come back once
             self.per.update(batch["ep"], batch["t"], out["td"].cpu().numpy())
         d = self.diag
         d["n_upd"] += 1

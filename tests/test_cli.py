@@ -53,6 +53,8 @@ def one_line_error(p, *needles):
         (["--compile-update=yes"], ["--compile-update", "ignored explicit argument"]),
         (["--reward-bonus", "2"], ["reward_bonus=2.0", "[-1, 1]"]),
         (["--reward-bonus", "nan"], ["reward_bonus=nan", "[-1, 1]"]),
+        (["--ebp-temperature", "0"], ["ebp_temperature=0.0", "finite number > 0"]),
+        (["--ebp-temperature", "inf"], ["ebp_temperature=inf", "finite number > 0"]),
         # a traceback from gym or torch before, or a run that trained on NaNs
         (["--seed", "-1"], ["seed=-1", "[0, 2**64)"]),
         (["--seed", str(2**64)], ["seed=", "[0, 2**64)"]),

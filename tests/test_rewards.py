@@ -125,3 +125,21 @@ def test_eq9_novel_start_ratio():
     assert novel_start_ratio(1.0, 0.7) == pytest.approx(0.2)
     assert novel_start_ratio(1.0, 0.2) == 0.0  # clipped at 0
     assert novel_start_ratio(0.0, 0.8) == pytest.approx(0.78161, abs=1e-5)
+
+
+def test_eq4_reward_and_eq8_loss_measure_the_same_error():
+    """Eq. 4's error (numpy, `intrinsic_reward`) and Eq. 8's (torch, `SICM.errors`)
+    are computed in two places: a change to one (a mean over the dimensions, no 1/2)
+    must fail here rather than split S-ICM's loss from the reward it ranks by."""
+    import torch
+
+    from acder_lite.curiosity import SICM
+
+    torch.manual_seed(0)
+    s, a, s2 = torch.randn(64, 13), torch.randn(64, 4), torch.randn(64, 13)
+    model = SICM(13, 4)
+    with torch.no_grad():
+        loss_rows, pred = model.errors(s, a, s2)
+    reward = intrinsic_reward(pred.numpy(), s2.numpy(), eta=math.inf)  # no clip
+    np.testing.assert_allclose(reward, loss_rows.numpy(), rtol=1e-5)
+    assert reward.min() > 0.5  # the 13-D errors of an untrained model: not all at 0

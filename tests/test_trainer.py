@@ -116,8 +116,12 @@ def test_every_method_runs_and_logs_its_diagnostics(tmp_path, method):
 def test_ebp_on_push_and_clip_range():
     tr = Trainer(tiny_config(method="her-ebp", env="FetchPush-v4", epochs=1))
     tr.train(False)
-    assert tr.ebp is not None
+    assert tr.ebp is not None and tr.ebp.temperature is None  # exponent 1
     assert tr.clip_return == pytest.approx((-50.0, 0.0))
+    theirs = Trainer(
+        tiny_config(method="her-ebp", env="FetchPush-v4", epochs=1, ebp_temperature=1.0)
+    )
+    assert theirs.ebp.temperature == 1.0  # Zhao & Tresp's exponent 1/1.01
     acder = Trainer(tiny_config(method="acder", env="FetchPush-v4", epochs=1))
     # protocol v2: Baselines' clip for every method
     assert acder.clip_return == pytest.approx((-50.0, 0.0))
