@@ -11,8 +11,9 @@ minibatches from its replay buffer exactly as training does, and reports
   carry the error;
 - **pool**: where the stored start states put the gripper and the object;
 - **motion** (tasks with an object; needs only the committed `policy.pt`): how the
-  trained policy moves the object on test episodes: its speed, its spin, and its path
-  against the straight line.
+  trained policy moves the object on test episodes: its speed, its spin, its path
+  against the straight line, and how often one of its Euler angles wraps around
+  (`angle_wraps`), a jump of the observation that Eq. 4 rewards at its clip.
 
 On the multi-step push (FetchPushMultiStep-v0: two blocks, 6-D goals) the state names
 are the 40 observation entries (object0_..., object1_...) and goal0.x ... goal1.z; the
@@ -309,9 +310,31 @@ def pool_profile(trainer, far: float = 0.2) -> dict:
     return out
 
 
-def _motion_stats(ag: np.ndarray, velr: np.ndarray, dt: float) -> dict:
+WRAP_ERROR = 0.5 * (2 * np.pi) ** 2
+"""Eq. 4's error before the clip, 1/2 ||.||^2, of a prediction that gets everything
+right but one Euler angle's wrap: about 19.7, far above either eta (0.05, 0.8)."""
+
+
+def angle_wraps(rot: np.ndarray) -> np.ndarray:
+    """Steps at which one of an object's Euler angles wraps around: `rot` the
+    observation's object_rot (..., T+1, 3), in radians within [-pi, pi]. Returns a bool
+    array (..., T), True where an angle changed by more than pi in one step.
+
+    Trap: Fetch reports the block's orientation as Euler angles (`object_rot`), which
+    jump by about 2 pi when the block turns through +-pi (or, at a pitch of +-pi/2,
+    through gimbal lock) although the block barely moved. No step of a physical block
+    turns it by pi in 0.04 s, so every such step is the representation's jump, not
+    motion. A forward model cannot predict it, and its error there (`WRAP_ERROR`) sits
+    at Eq. 4's clip."""
+    return (np.abs(np.diff(np.asarray(rot, np.float64), axis=-2)) > np.pi).any(-1)
+
+
+def _motion_stats(
+    ag: np.ndarray, velr: np.ndarray, dt: float, rot: np.ndarray | None = None
+) -> dict:
     """Speed, spin and path of one object: `ag` its positions (N, T+1, 3), `velr` the
-    observation's object_velr of it (N, T, 3, steps 1..T)."""
+    observation's object_velr of it (N, T, 3, steps 1..T), `rot` its object_rot
+    (N, T+1, 3; `angle_wraps`)."""
     steps = np.linalg.norm(np.diff(ag, axis=1), axis=-1)  # (N, T)
     speed = steps / dt
     spin = np.linalg.norm(velr, axis=-1) / dt
@@ -329,6 +352,13 @@ def _motion_stats(ag: np.ndarray, velr: np.ndarray, dt: float) -> dict:
         path_over_distance=float(np.median(path[moved] / disp[moved]))
         if moved.any()
         else float("nan"),
+    ) | (
+        {}
+        if rot is None
+        else dict(
+            wrap_step_share=float(angle_wraps(rot).mean()),
+            wrap_episode_share=float(angle_wraps(rot).any(-1).mean()),
+        )
     )
 
 
@@ -355,23 +385,26 @@ def object_motion(
         raise ConfigError(
             f"env={env_id!r} has no object to follow; allowed: {', '.join(OBJECT_ENVS)}"
         )
-    velr = object_fields(envs[0], "velr")
+    velr, rot = object_fields(envs[0], "velr"), object_fields(envs[0], "rot")
     dt, T = float(envs[0].dt), E.horizon(env_id)
-    ags, spins, succ = [], [], []
+    ags, spins, rots, succ = [], [], [], []
     for _ in range(-(-episodes // workers)):
         ep = run_episodes(envs, policy, T)
         ags.append(ep["ag"].astype(np.float64))
         spins.append(
             np.stack([ep["o"][:, 1:, s].astype(np.float64) for s in velr])
         )  # (k, W, T, 3)
+        rots.append(np.stack([ep["o"][:, :, s] for s in rot]))  # (k, W, T+1, 3)
         succ.append(ep["success"])
-    ag, spin, succ = (
+    ag, spin, rots, succ = (
         np.concatenate(ags),
         np.concatenate(spins, axis=1),
+        np.concatenate(rots, axis=1),
         np.concatenate(succ),
     )
     stats = [
-        _motion_stats(ag[..., 3 * i : 3 * i + 3], spin[i], dt) for i in range(len(velr))
+        _motion_stats(ag[..., 3 * i : 3 * i + 3], spin[i], dt, rots[i])
+        for i in range(len(velr))
     ]
     out = dict(episodes=int(succ.size), success=float(succ.mean()))
     if len(stats) == 1:
@@ -532,9 +565,16 @@ def _motion_text(m: dict) -> str:
         if m["moved_share"] > 0
         else ""  # no episode moved it: no path to measure (path_over_distance is nan)
     )
+    wraps = (
+        f"; an Euler angle wraps at {m['wrap_step_share']:.4f} of the steps, in "
+        f"{m['wrap_episode_share']:.2f} of the episodes"
+        if "wrap_step_share" in m
+        else ""
+    )
     return (
         f"speed {m['speed_mean']:.4f} m/s, spin {m['spin_mean']:.3f} rad/s (99%: "
         f"{m['spin_p99']:.2f}); moved in {m['moved_share']:.2f} of the episodes{path}"
+        f"{wraps}"
     )
 
 

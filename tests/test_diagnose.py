@@ -122,9 +122,26 @@ def test_object_motion_of_a_still_policy_is_zero():
         m["speed_mean"] < 1e-3 and m["spin_mean"] < 1e-2
     )  # the object only settles on the table
     assert m["moved_share"] == 0.0 and np.isnan(m["path_over_distance"])
+    assert m["wrap_step_share"] == 0.0 and m["wrap_episode_share"] == 0.0
     # the text says what was measured, and no "nan"
     text = D.to_text(dict(run="r", method="her", env="FetchPush-v4", motion=m))
     assert "moved in 0.00 of the episodes" in text and "nan" not in text
+    assert "wraps at 0.0000 of the steps" in text
+
+
+def test_angle_wraps_by_hand():
+    """A yaw turning steadily through +pi (the block barely moves) reads as one wrap;
+    a fast but continuous turn and a jump just under pi read as none."""
+    yaw = np.array([3.0, 3.1, -3.1, -3.0])  # +0.1, a wrap (+0.083 turned), +0.1
+    rot = np.zeros((1, 4, 3))
+    rot[0, :, 2] = yaw
+    assert D.angle_wraps(rot).tolist() == [[False, True, False]]
+    smooth = np.zeros((2, 3, 3))
+    smooth[0, :, 0] = [-1.0, 0.5, 2.0]  # 1.5 rad a step, no wrap
+    smooth[1, :, 1] = [0.0, np.pi - 1e-6, 0.0]  # just under pi each way
+    assert not D.angle_wraps(smooth).any()
+    # a perfect prediction but for that wrap still costs Eq. 4 its clip
+    assert D.WRAP_ERROR == pytest.approx(19.74, abs=0.01) and D.WRAP_ERROR > 0.8
 
 
 def test_text_of_a_minibatch_without_successful_rows():
@@ -309,6 +326,7 @@ def test_object_motion_is_per_block_on_the_multistep_push():
     m = D.object_motion(push1, MULTI, episodes=2, workers=2)
     assert m["episodes"] == 2 and len(m["blocks"]) == 2 and "speed_mean" not in m
     b0, b1 = m["blocks"]
+    assert {"wrap_step_share", "wrap_episode_share"} <= set(b0) & set(b1)
     assert (
         b1["speed_mean"] > 0.005
         and b1["moved_share"] > 0
