@@ -37,6 +37,7 @@ import numpy as np
 import torch
 
 from . import envs as E
+from .wraps import angle_wraps
 from .config import OBJECT_ENVS, Config, ConfigError
 from .curiosity import SICM
 from .io import (
@@ -308,25 +309,6 @@ def pool_profile(trainer, far: float = 0.2) -> dict:
             for i in range(k)
         ]
     return out
-
-
-WRAP_ERROR = 0.5 * (2 * np.pi) ** 2
-"""Eq. 4's error before the clip, 1/2 ||.||^2, of a prediction that gets everything
-right but one Euler angle's wrap: about 19.7, far above either eta (0.05, 0.8)."""
-
-
-def angle_wraps(rot: np.ndarray) -> np.ndarray:
-    """Steps at which one of an object's Euler angles wraps around: `rot` the
-    observation's object_rot (..., T+1, 3), in radians within [-pi, pi]. Returns a bool
-    array (..., T), True where an angle changed by more than pi in one step.
-
-    Trap: Fetch reports the block's orientation as Euler angles (`object_rot`), which
-    jump by about 2 pi when the block turns through +-pi (or, at a pitch of +-pi/2,
-    through gimbal lock) although the block barely moved. No step of a physical block
-    turns it by pi in 0.04 s, so every such step is the representation's jump, not
-    motion. A forward model cannot predict it, and its error there (`WRAP_ERROR`) sits
-    at Eq. 4's clip."""
-    return (np.abs(np.diff(np.asarray(rot, np.float64), axis=-2)) > np.pi).any(-1)
 
 
 def _motion_stats(

@@ -129,21 +129,6 @@ def test_object_motion_of_a_still_policy_is_zero():
     assert "wraps at 0.0000 of the steps" in text
 
 
-def test_angle_wraps_by_hand():
-    """A yaw turning steadily through +pi (the block barely moves) reads as one wrap;
-    a fast but continuous turn and a jump just under pi read as none."""
-    yaw = np.array([3.0, 3.1, -3.1, -3.0])  # +0.1, a wrap (+0.083 turned), +0.1
-    rot = np.zeros((1, 4, 3))
-    rot[0, :, 2] = yaw
-    assert D.angle_wraps(rot).tolist() == [[False, True, False]]
-    smooth = np.zeros((2, 3, 3))
-    smooth[0, :, 0] = [-1.0, 0.5, 2.0]  # 1.5 rad a step, no wrap
-    smooth[1, :, 1] = [0.0, np.pi - 1e-6, 0.0]  # just under pi each way
-    assert not D.angle_wraps(smooth).any()
-    # a perfect prediction but for that wrap still costs Eq. 4 its clip
-    assert D.WRAP_ERROR == pytest.approx(19.74, abs=0.01) and D.WRAP_ERROR > 0.8
-
-
 def test_text_of_a_minibatch_without_successful_rows():
     c = dict(
         rows=2048,

@@ -1,0 +1,73 @@
+"""Euler-angle wraps (acder_lite/wraps.py): found by hand, summarised over runs."""
+
+import json
+
+import numpy as np
+import pytest
+
+from acder_lite import wraps as W
+
+
+def test_angle_wraps_by_hand():
+    """A yaw turning steadily through +pi (the block barely moves) reads as one wrap;
+    a fast but continuous turn and a jump just under pi read as none."""
+    yaw = np.array([3.0, 3.1, -3.1, -3.0])  # +0.1, a wrap (+0.083 turned), +0.1
+    rot = np.zeros((1, 4, 3))
+    rot[0, :, 2] = yaw
+    assert W.angle_wraps(rot).tolist() == [[False, True, False]]
+    smooth = np.zeros((2, 3, 3))
+    smooth[0, :, 0] = [-1.0, 0.5, 2.0]  # 1.5 rad a step, no wrap
+    smooth[1, :, 1] = [0.0, np.pi - 1e-6, 0.0]  # just under pi each way
+    assert not W.angle_wraps(smooth).any()
+    # a perfect prediction but for that wrap still costs Eq. 4 its clip
+    assert W.WRAP_ERROR == pytest.approx(19.74, abs=0.01) and W.WRAP_ERROR > 0.8
+
+
+def _write(folder, env, name, seed, method, step, episode, success=1.0):
+    p = folder / env / name / f"seed{seed}.json"
+    p.parent.mkdir(parents=True, exist_ok=True)
+    motion = dict(
+        episodes=40,
+        success=success,
+        wrap_step_share=step,
+        wrap_episode_share=episode,
+    )
+    p.write_text(json.dumps(dict(run="r", method=method, env=env, motion=motion)))
+
+
+def test_summary_groups_cells_and_compares_the_two_kinds(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    _write(a, "FetchPush-v4", "her", 0, "her", 0.002, 0.05)
+    _write(a, "FetchPush-v4", "her", 1, "her", 0.004, 0.10, success=0.5)
+    _write(a, "FetchPush-v4", "acder", 0, "acder", 0.03, 0.4)
+    _write(b, "FetchPush-v4", "her-bonus", 0, "her", 0.001, 0.0)
+    # a run of a task without an object has no motion block: left out
+    (a / "FetchReach-v4" / "her").mkdir(parents=True)
+    (a / "FetchReach-v4" / "her" / "seed0.json").write_text(
+        json.dumps(dict(run="r", method="her", env="FetchReach-v4"))
+    )
+    rows = W.summarize(a, b)
+    assert [r["name"] for r in rows] == ["her-bonus", "her", "acder"]  # by step share
+    her = rows[1]
+    assert her["seeds"] == 2 and her["step_share"] == pytest.approx(0.003)
+    assert (her["step_share_min"], her["step_share_max"]) == (0.002, 0.004)
+    assert her["episode_share"] == pytest.approx(0.075) and her["success"] == 0.75
+    assert [r["curiosity_reward"] for r in rows] == [False, False, True]
+    header, body = W.table_rows(rows)
+    assert len(header) == len(body[1]) and body[1][4] == "0.30% (0.20% - 0.40%)"
+    text = W.sentence(rows, "FetchPush-v4")
+    assert "at 3.00% to 3.00% of the test steps in the one cell whose reward" in text
+    assert "at 0.10% to 0.30% in the 2 cells without one" in text
+    assert "do not overlap" in text
+    # a seed without the bonus that wraps as often: the ranges overlap
+    _write(a, "FetchPush-v4", "her", 2, "her", 0.05, 0.5)
+    assert "seed by seed the two overlap" in W.sentence(
+        W.summarize(a, b), "FetchPush-v4"
+    )
+    assert "do not have both" in W.sentence(rows, "FetchPickAndPlace-v4")
+
+
+def test_which_methods_reward_curiosity():
+    assert W.curiosity_in_reward("acder") and W.curiosity_in_reward("her-icm")
+    assert not W.curiosity_in_reward("acder-no-curiosity")  # S-ICM ranks starts only
+    assert not W.curiosity_in_reward("her") and not W.curiosity_in_reward("her-ebp")
