@@ -37,7 +37,6 @@ import numpy as np
 import torch
 
 from . import envs as E
-from .wraps import angle_wraps
 from .config import OBJECT_ENVS, Config, ConfigError
 from .curiosity import SICM
 from .io import (
@@ -48,6 +47,8 @@ from .io import (
     write_error,
     write_json,
 )
+from .start_states import select_candidate
+from .wraps import angle_wraps
 
 
 def state_names(trainer) -> list[str]:
@@ -70,6 +71,14 @@ def n_objects(env) -> int:
     return int(getattr(env, "n_objects", 1)) if env.has_object else 0
 
 
+def _rot_fields(env) -> list[slice]:
+    """The blocks' Euler-angle slices of the observation; none without a block, or on
+    a simplified state (which drops the angles)."""
+    if not env.has_object or not any(n.endswith("_rot.x") for n in E.obs_names(env)):
+        return []
+    return object_fields(env, "rot")
+
+
 def object_fields(env, field: str) -> list[slice]:
     """One slice of the observation per object for an object field (`pos`, `velr`, ...),
     by name: object_velr.x..z on the one-object tasks, object0_velr.x..z,
@@ -89,7 +98,11 @@ def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
 
     Returns the share of rows whose error reaches eta (so Eq. 4 clips them), the same
     share among rows of successful episodes, error quantiles, and the `top` state
-    entries by mean squared error.
+    entries by mean squared error. Where the state holds the blocks' Euler angles
+    (`object_rot`), also `wraps`: the share of rows whose step turns a block through an
+    angle's wrap (`wraps.angle_wraps`), that share among the rows at the clip, and among
+    the start-state candidates the minibatches give (`start_states.select_candidate`,
+    one a minibatch, as training offers them).
     """
     if not isinstance(trainer.curiosity, SICM):
         raise ConfigError(
@@ -97,7 +110,8 @@ def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
             "and its ablations"
         )
     eta = trainer.cfg.eta
-    errs, succ, sq = [], [], 0.0
+    rot = _rot_fields(trainer.envs[0])
+    errs, succ, wrap, picked, sq = [], [], [], [], 0.0
     with torch.no_grad():
         for _ in range(batches):
             b = trainer.sample_batch()
@@ -107,25 +121,46 @@ def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
             errs.append(err.numpy())
             succ.append(trainer.buffer.success[b["ep"]])
             sq = sq + (pred - x2).pow(2).mean(0).numpy() / batches
+            if rot:
+                w = np.zeros(len(b["o"]), bool)
+                for f in rot:  # (B, 2, 3): the angles before and after the step
+                    w |= angle_wraps(np.stack([b["o"][:, f], b["o2"][:, f]], 1))[:, 0]
+                wrap.append(w)
+                r_int = np.minimum(errs[-1].astype(np.float64), eta)  # Eq. 4
+                row = select_candidate(r_int, succ[-1].astype(bool))
+                if row is not None:
+                    picked.append(bool(w[row]))
     err, succ = np.concatenate(errs), np.concatenate(succ)
     names = state_names(trainer)
     order = np.argsort(-sq)[:top]
-    return dict(
-        eta=eta,
-        rows=int(err.size),
-        successful_rows=int(succ.sum()),
-        share_at_clip=float((err >= eta).mean()),
-        share_at_clip_successful=float((err[succ] >= eta).mean())
-        if succ.any()
-        else float("nan"),
-        error_quantiles={
-            str(q): float(v)
-            for q, v in zip(
-                (0.1, 0.5, 0.9, 0.99), np.quantile(err, [0.1, 0.5, 0.9, 0.99])
-            )
-        },
-        top_entries=[(names[i], float(sq[i])) for i in order],
-        share_of_error_in_top=float(sq[order].sum() / max(sq.sum(), 1e-12)),
+    extra = {}
+    if rot:
+        w, clipped = np.concatenate(wrap), err >= eta
+        extra["wraps"] = dict(
+            share_of_rows=float(w.mean()),
+            share_at_clip=float(w[clipped].mean()) if clipped.any() else float("nan"),
+            candidates=len(picked),
+            share_of_candidates=float(np.mean(picked)) if picked else float("nan"),
+        )
+    return (
+        dict(
+            eta=eta,
+            rows=int(err.size),
+            successful_rows=int(succ.sum()),
+            share_at_clip=float((err >= eta).mean()),
+            share_at_clip_successful=float((err[succ] >= eta).mean())
+            if succ.any()
+            else float("nan"),
+            error_quantiles={
+                str(q): float(v)
+                for q, v in zip(
+                    (0.1, 0.5, 0.9, 0.99), np.quantile(err, [0.1, 0.5, 0.9, 0.99])
+                )
+            },
+            top_entries=[(names[i], float(sq[i])) for i in order],
+            share_of_error_in_top=float(sq[order].sum() / max(sq.sum(), 1e-12)),
+        )
+        | extra
     )
 
 
@@ -509,6 +544,14 @@ def to_text(d: dict) -> str:
             f"  largest errors ({c['share_of_error_in_top']:.0%} of the total): "
             + ", ".join(f"{n} {v:.3g}" for n, v in c["top_entries"]),
         ]
+        w = c.get("wraps")
+        if w:
+            lines.append(
+                f"  Euler-angle wraps: {w['share_of_rows']:.4f} of all rows, "
+                f"{w['share_at_clip']:.2f} of the rows at the clip, "
+                f"{w['share_of_candidates']:.2f} of the {w['candidates']} start-state "
+                "candidates the minibatches give"
+            )
     p = d.get("pool")
     if p:
         if p["size"] == 0:

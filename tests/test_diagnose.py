@@ -74,6 +74,33 @@ def test_curiosity_profile_does_not_train(tmp_path):
         assert bool((a == b).all())
 
 
+def test_curiosity_profile_finds_the_euler_wraps():
+    """Every stored step made to turn the block's yaw through +-pi: every row is a wrap,
+    and so is every candidate of successful episodes; with the angles still, none is."""
+    tr = _push_trainer(cycles=2, epochs=1)
+    tr.train(progress=False)
+    (rot,) = D.object_fields(tr.envs[0], "rot")
+    z, buf = rot.start + 2, tr.buffer
+    buf.o[: buf.n, 0::2, z], buf.o[: buf.n, 1::2, z] = 3.0, -3.0
+    buf.success[: buf.n] = True
+    w = D.curiosity_profile(tr, batches=3)["wraps"]
+    assert w["share_of_rows"] == 1.0 and w["candidates"] == 3
+    assert w["share_of_candidates"] == 1.0
+    assert w["share_at_clip"] == 1.0  # an error of about 2 pi^2 at raw inputs
+    buf.o[: buf.n, :, rot] = 0.0
+    w = D.curiosity_profile(tr, batches=3)["wraps"]
+    assert w["share_of_rows"] == 0.0 and w["share_of_candidates"] == 0.0
+    text = D.to_text(
+        dict(
+            run="r",
+            method="acder",
+            env="FetchPush-v4",
+            curiosity=D.curiosity_profile(tr, 2),
+        )
+    )
+    assert "Euler-angle wraps: 0.0000 of all rows" in text
+
+
 def test_diagnose_cli(tmp_path, cli):
     run = tmp_path / "acder"
     Trainer(
