@@ -2,7 +2,9 @@
 
 `python -m acder_lite diagnose results/FetchPush-v4/acder/seed4` loads the run's
 `checkpoint.pt` (a run folder that still holds one: not a copied `same_as` cell, and
-only on the machine that trained it, the file being too large to commit), draws
+only on the machine that trained it, the file being too large to commit) or, without
+one, its packed checkpoint (`checkpoint.packed/`, which a run in flight carries in git
+from session to session: its buffer is re-simulated first, minutes), draws
 minibatches from its replay buffer exactly as training does, and reports
 
 - **curiosity**: how the S-ICM error 1/2 ||F(s, a) - s'||^2 (Eq. 4 before the clip) is
@@ -32,11 +34,13 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 
 import numpy as np
 import torch
 
 from . import envs as E
+from . import packed
 from .config import OBJECT_ENVS, Config, ConfigError
 from .curiosity import SICM
 from .io import (
@@ -468,7 +472,13 @@ def diagnose(
             motion=object_motion(act, pol["env"], episodes, seed),
         )
     path = os.path.join(run_dir, "checkpoint.pt")
-    ckpt = load_torch(path)
+    if not os.path.exists(path) and packed.has_packed(run_dir):
+        # a run carried over in git (`pack`): its buffer is re-simulated, minutes
+        path = os.path.join(run_dir, packed.FOLDER)
+        print(f"diagnose: rebuilding the replay buffer from {path}", file=sys.stderr)
+        ckpt = packed.unpack(run_dir)
+    else:
+        ckpt = load_torch(path)
     if "buffer" not in ckpt:
         raise CheckpointError(
             f"checkpoint {path!r} holds a policy only; allowed: a checkpoint.pt "
@@ -604,7 +614,11 @@ def _motion_text(m: dict) -> str:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("run", help="a run folder holding checkpoint.pt")
+    parser.add_argument(
+        "run",
+        help="a run folder holding checkpoint.pt, or checkpoint.packed/ (`pack`), "
+        "whose replay buffer is then re-simulated first (minutes)",
+    )
     parser.add_argument(
         "--batches", type=int, default=10, help="minibatches to draw (default: 10)"
     )

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import METHODS
+from .table import task_label
 
 WRAP_ERROR = 0.5 * (2 * np.pi) ** 2
 """Eq. 4's error before the clip, 1/2 ||.||^2, on raw inputs (`sicm_input="raw"`), of a
@@ -94,7 +95,7 @@ def table_rows(rows: list[dict]) -> tuple[list[str], list[list[str]]]:
     ]
     body = [
         [
-            r["env"],
+            task_label(r["env"]),
             f"`{r['name']}`",
             "yes" if r["curiosity_reward"] else "no",
             str(r["seeds"]),
@@ -115,7 +116,10 @@ def sentence(rows: list[dict], env: str) -> str:
     yes = [r for r in mine if r["curiosity_reward"]]
     no = [r for r in mine if not r["curiosity_reward"]]
     if not yes or not no:
-        return f"On {env} the runs read so far do not have both kinds of reward."
+        return (
+            f"On {task_label(env)} the runs read so far do not have both kinds of "
+            "reward."
+        )
 
     def means(rs):
         m = [r["step_share"] for r in rs]
@@ -129,11 +133,11 @@ def sentence(rows: list[dict], env: str) -> str:
     (ylo, yhi), (nlo, nhi) = seeds(yes), seeds(no)
     apart = ylo > nhi or yhi < nlo
     return (
-        f"On {env}, the block turns through a wrap at {means(yes)} of the test steps "
-        f"in {_cells(yes)} whose reward has a curiosity bonus (the mean over a cell's "
-        f"seeds), at {means(no)} in {_cells(no)} without one; seed by seed the two "
-        f"{'do not overlap' if apart else 'overlap'} ({ylo:.2%} to {yhi:.2%} against "
-        f"{nlo:.2%} to {nhi:.2%})."
+        f"On {task_label(env)}, the block turns through a wrap at {means(yes)} of the "
+        f"test steps in {_cells(yes)} whose reward has a curiosity bonus (the mean "
+        f"over a cell's seeds), at {means(no)} in {_cells(no)} without one; seed by "
+        f"seed the two {'do not overlap' if apart else 'overlap'} ({ylo:.2%} to "
+        f"{yhi:.2%} against {nlo:.2%} to {nhi:.2%})."
     )
 
 
