@@ -143,3 +143,28 @@ def sentence(rows: list[dict], env: str) -> str:
 
 def _cells(rows: list[dict]) -> str:
     return "the one cell" if len(rows) == 1 else f"the {len(rows)} cells"
+
+
+def buffer_readings(folder: str | Path) -> list[dict]:
+    """The `diagnose --json` files of runs' replay buffers under `folder`
+    (`experiments/angle-wraps/buffer.sh`), those with an S-ICM wrap reading, in order
+    of their path."""
+    out = []
+    for path in sorted(Path(folder).rglob("*.json")):
+        d = json.loads(path.read_text())
+        if "wraps" in (d.get("curiosity") or {}):
+            out.append(d)
+    return out
+
+
+def buffer_sentence(d: dict) -> str:
+    """One buffer reading (`buffer_readings`) in a sentence."""
+    c, w = d["curiosity"], d["curiosity"]["wraps"]
+    return (
+        f"In the replay buffer of `{d['run']}` ({d['method']}, {d['episodes']:,} "
+        f"episodes), {c['share_at_clip']:.0%} of {c['rows']:,} minibatch rows sit at "
+        f"Eq. 4's clip; {w['share_of_rows']:.1%} of all rows are wraps, and so are "
+        f"{w['share_at_clip']:.0%} of the rows at the clip and "
+        f"{w['share_of_candidates']:.0%} of the {w['candidates']} start-state "
+        "candidates the minibatches give."
+    )

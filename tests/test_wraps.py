@@ -71,3 +71,25 @@ def test_which_methods_reward_curiosity():
     assert W.curiosity_in_reward("acder") and W.curiosity_in_reward("her-icm")
     assert not W.curiosity_in_reward("acder-no-curiosity")  # S-ICM ranks starts only
     assert not W.curiosity_in_reward("her") and not W.curiosity_in_reward("her-ebp")
+
+
+def test_buffer_readings_in_a_sentence(tmp_path):
+    wraps = dict(share_of_rows=0.068, share_at_clip=0.52, candidates=40)
+    d = dict(
+        run="results/FetchPush-v4/acder/seed2",
+        method="acder",
+        episodes=10400,
+        curiosity=dict(
+            rows=40960, share_at_clip=0.13, wraps=wraps | {"share_of_candidates": 0.725}
+        ),
+    )
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "r@abc.json").write_text(json.dumps(d))
+    (tmp_path / "b.json").write_text(json.dumps(dict(run="her", curiosity=None)))
+    (got,) = W.buffer_readings(tmp_path)  # the file without a wrap reading is left out
+    assert W.buffer_sentence(got) == (
+        "In the replay buffer of `results/FetchPush-v4/acder/seed2` (acder, 10,400 "
+        "episodes), 13% of 40,960 minibatch rows sit at Eq. 4's clip; 6.8% of all "
+        "rows are wraps, and so are 52% of the rows at the clip and 72% of the 40 "
+        "start-state candidates the minibatches give."
+    )
