@@ -556,11 +556,20 @@ def to_text(d: dict) -> str:
         ]
         w = c.get("wraps")
         if w:
-            lines.append(
-                f"  Euler-angle wraps: {w['share_of_rows']:.4f} of all rows, "
-                f"{w['share_at_clip']:.2f} of the rows at the clip, "
+            at_clip = (
+                f"{w['share_at_clip']:.2f} of the rows at the clip"
+                if w["share_at_clip"] == w["share_at_clip"]  # nan: no row at the clip
+                else "no row at the clip"
+            )
+            picked = (
                 f"{w['share_of_candidates']:.2f} of the {w['candidates']} start-state "
                 "candidates the minibatches give"
+                if w["candidates"]
+                else "no start-state candidate (no row of a successful episode)"
+            )
+            lines.append(
+                f"  Euler-angle wraps: {w['share_of_rows']:.4f} of all rows, "
+                f"{at_clip}, {picked}"
             )
     p = d.get("pool")
     if p:

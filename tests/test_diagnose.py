@@ -99,6 +99,11 @@ def test_curiosity_profile_finds_the_euler_wraps():
         )
     )
     assert "Euler-angle wraps: 0.0000 of all rows" in text
+    buf.success[: buf.n] = False  # no candidate, and no "nan" in the text
+    c = D.curiosity_profile(tr, 2)
+    assert c["wraps"]["candidates"] == 0
+    text = D.to_text(dict(run="r", method="acder", env="FetchPush-v4", curiosity=c))
+    assert "no start-state candidate" in text and "nan" not in text.split("wraps:")[1]
 
 
 def test_diagnose_cli(tmp_path, cli):
