@@ -166,5 +166,10 @@ def buffer_sentence(d: dict) -> str:
         f"Eq. 4's clip; {w['share_of_rows']:.1%} of all rows are wraps, and so are "
         f"{w['share_at_clip']:.0%} of the rows at the clip and "
         f"{w['share_of_candidates']:.0%} of the {w['candidates']} start-state "
-        "candidates the minibatches give."
+        "candidates the minibatches give"
+        + (
+            "."
+            if METHODS[d["method"]]["start_states"]
+            else " (the rule's picks: this method restarts from none)."
+        )
     )

@@ -93,3 +93,7 @@ def test_buffer_readings_in_a_sentence(tmp_path):
         "rows are wraps, and so are 52% of the rows at the clip and 72% of the 40 "
         "start-state candidates the minibatches give."
     )
+    got["method"] = "acder-no-start-states"
+    assert W.buffer_sentence(got).endswith(
+        "give (the rule's picks: this method restarts from none)."
+    )
