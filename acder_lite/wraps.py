@@ -162,11 +162,11 @@ def buffer_sentence(d: dict) -> str:
     c, w = d["curiosity"], d["curiosity"]["wraps"]
     return (
         f"In the replay buffer of `{d['run']}` ({d['method']}, {d['episodes']:,} "
-        f"episodes), {c['share_at_clip']:.0%} of {c['rows']:,} minibatch rows sit at "
-        f"Eq. 4's clip; {w['share_of_rows']:.1%} of all rows are wraps, and so are "
+        f"episodes), {c['share_at_clip']:.1%} of {c['rows']:,} minibatch rows sit at "
+        f"Eq. 4's clip; {w['share_of_rows']:.2%} of all rows are wraps, and so are "
         f"{w['share_at_clip']:.0%} of the rows at the clip and "
-        f"{w['share_of_candidates']:.0%} of the {w['candidates']} start-state "
-        "candidates the minibatches give"
+        f"{round(w['share_of_candidates'] * w['candidates'])} of the "
+        f"{w['candidates']} start-state candidates the minibatches give"
         + (
             "."
             if METHODS[d["method"]]["start_states"]

@@ -89,8 +89,8 @@ def test_buffer_readings_in_a_sentence(tmp_path):
     (got,) = W.buffer_readings(tmp_path)  # the file without a wrap reading is left out
     assert W.buffer_sentence(got) == (
         "In the replay buffer of `results/FetchPush-v4/acder/seed2` (acder, 10,400 "
-        "episodes), 13% of 40,960 minibatch rows sit at Eq. 4's clip; 6.8% of all "
-        "rows are wraps, and so are 52% of the rows at the clip and 72% of the 40 "
+        "episodes), 13.0% of 40,960 minibatch rows sit at Eq. 4's clip; 6.80% of all "
+        "rows are wraps, and so are 52% of the rows at the clip and 29 of the 40 "
         "start-state candidates the minibatches give."
     )
     got["method"] = "acder-no-start-states"
