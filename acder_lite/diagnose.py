@@ -51,6 +51,7 @@ from .io import (
     write_error,
     write_json,
 )
+from .rewards import intrinsic_reward
 from .start_states import select_candidate
 from .wraps import angle_wraps
 
@@ -130,7 +131,10 @@ def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
                 for f in rot:  # (B, 2, 3): the angles before and after the step
                     w |= angle_wraps(np.stack([b["o"][:, f], b["o2"][:, f]], 1))[:, 0]
                 wrap.append(w)
-                r_int = np.minimum(errs[-1].astype(np.float64), eta)  # Eq. 4
+                # Eq. 4 as the trainer takes it, so the candidate is the one it offers
+                r_int = intrinsic_reward(
+                    pred.cpu().numpy(), x2.cpu().numpy(), eta
+                ).astype(np.float32)
                 row = select_candidate(r_int, succ[-1].astype(bool))
                 if row is not None:
                     picked.append(bool(w[row]))

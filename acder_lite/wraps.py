@@ -158,15 +158,26 @@ def buffer_readings(folder: str | Path) -> list[dict]:
 
 
 def buffer_sentence(d: dict) -> str:
-    """One buffer reading (`buffer_readings`) in a sentence."""
+    """One buffer reading (`buffer_readings`) in a sentence. A share of no rows (no row
+    at the clip, no candidate) is null in the file and said in words here."""
     c, w = d["curiosity"], d["curiosity"]["wraps"]
+    at_clip = (
+        "no row is at the clip"
+        if w["share_at_clip"] is None
+        else f"{w['share_at_clip']:.0%} of the rows at the clip are wraps"
+    )
+    n = round(w["share_of_candidates"] * w["candidates"]) if w["candidates"] else 0
+    picked = (
+        "no start-state candidate was drawn"
+        if not w["candidates"]
+        else f"{n} of the {w['candidates']} start-state candidates the minibatches "
+        f"give {'is a wrap' if n == 1 else 'are wraps'}"
+    )
     return (
         f"In the replay buffer of `{d['run']}` ({d['method']}, {d['episodes']:,} "
         f"episodes), {c['share_at_clip']:.1%} of {c['rows']:,} minibatch rows sit at "
-        f"Eq. 4's clip; {w['share_of_rows']:.2%} of all rows are wraps, and so are "
-        f"{w['share_at_clip']:.0%} of the rows at the clip and "
-        f"{round(w['share_of_candidates'] * w['candidates'])} of the "
-        f"{w['candidates']} start-state candidates the minibatches give"
+        f"Eq. 4's clip and {w['share_of_rows']:.2%} of all rows are wraps; {at_clip}, "
+        f"and {picked}"
         + (
             "."
             if METHODS[d["method"]]["start_states"]

@@ -89,11 +89,15 @@ def test_buffer_readings_in_a_sentence(tmp_path):
     (got,) = W.buffer_readings(tmp_path)  # the file without a wrap reading is left out
     assert W.buffer_sentence(got) == (
         "In the replay buffer of `results/FetchPush-v4/acder/seed2` (acder, 10,400 "
-        "episodes), 13.0% of 40,960 minibatch rows sit at Eq. 4's clip; 6.80% of all "
-        "rows are wraps, and so are 52% of the rows at the clip and 29 of the 40 "
-        "start-state candidates the minibatches give."
+        "episodes), 13.0% of 40,960 minibatch rows sit at Eq. 4's clip and 6.80% of "
+        "all rows are wraps; 52% of the rows at the clip are wraps, and 29 of the 40 "
+        "start-state candidates the minibatches give are wraps."
     )
     got["method"] = "acder-no-start-states"
     assert W.buffer_sentence(got).endswith(
-        "give (the rule's picks: this method restarts from none)."
+        "are wraps (the rule's picks: this method restarts from none)."
     )
+    # no row at the clip, no candidate: null in the file, words in the sentence
+    got["curiosity"]["wraps"] |= dict(share_at_clip=None, candidates=0)
+    text = W.buffer_sentence(got)
+    assert "no row is at the clip, and no start-state candidate was drawn" in text
