@@ -377,13 +377,14 @@ def _motion_stats(
         path_over_distance=float(np.median(path[moved] / disp[moved]))
         if moved.any()
         else float("nan"),
-    ) | (
-        {}
-        if rot is None
-        else dict(
-            wrap_step_share=float(angle_wraps(rot).mean()),
-            wrap_episode_share=float(angle_wraps(rot).any(-1).mean()),
-        )
+    ) | ({} if rot is None else _wrap_shares(angle_wraps(rot)))
+
+
+def _wrap_shares(wraps: np.ndarray) -> dict:
+    """Shares of steps and of episodes with a wrap, from `angle_wraps`' (N, T)."""
+    return dict(
+        wrap_step_share=float(wraps.mean()),
+        wrap_episode_share=float(wraps.any(-1).mean()),
     )
 
 
