@@ -147,6 +147,7 @@ TARGET_CLIPS = ("baselines", "wide")
 INITS = ("xavier", "torch")
 BUFFER_SCOPES = ("worker", "shared")
 SICM_INPUTS = ("normalised", "raw")
+SICM_ANGLES = ("euler", "sincos")
 OBS_SETS = ("full", "simplified")
 """Allowed `Config.obs` values (`acder_lite.observations`)."""
 
@@ -285,6 +286,14 @@ class Config:
     experiments/readings/ measured both on Push (3 seeds each): the runs do not separate
     them, so the paper's eta values (0.05 on Reach, 0.8 elsewhere: raw-scale errors)
     decide (departure 6). S-ICM only: HER+ICM's ICM always sees the normalised ones."""
+    sicm_angles: str = "euler"
+    """How S-ICM sees each block's orientation (`object_rot`, three Euler angles in
+    [-pi, pi]): 'euler' as the observation gives them (the paper's), or 'sincos', each
+    angle theta as (sin theta, cos theta), which does not jump by 2 pi when the block
+    turns through +-pi (`observations.sincos_angles`). Not the paper's: an experiment on
+    what Eq. 4 pays for such wraps (experiments/sicm-sincos/, departure 6). S-ICM only,
+    on raw inputs, on tasks with a block in the observation; the policy, the critic and
+    ICM see the observation unchanged."""
     sicm_lr: float = 1e-3
     """Adam learning rate of the forward model (S-ICM or ICM)."""
     pool_size: int = 50
@@ -511,6 +520,7 @@ class Config:
             ("init", INITS),
             ("buffer_scope", BUFFER_SCOPES),
             ("sicm_input", SICM_INPUTS),
+            ("sicm_angles", SICM_ANGLES),
             ("split_update", SPLIT_UPDATES),
         ):
             if getattr(self, name) not in allowed:
@@ -562,6 +572,19 @@ class Config:
             bad("device", " or ".join(repr(x) for x in DEVICES))
         if self.obs not in OBS_SETS:
             bad("obs", " or ".join(repr(x) for x in OBS_SETS))
+        if self.sicm_angles == "sincos":  # (sin, cos) of the raw angles, of a block's
+            if self.sicm_input != "raw":
+                bad(
+                    "sicm_angles",
+                    "'euler' with sicm_input='normalised' ('sincos' "
+                    "encodes the raw angles: sicm_input='raw')",
+                )
+            if self.env == "FetchReach-v4" or self.obs == "simplified":
+                bad(
+                    "sicm_angles",
+                    "'euler' on FetchReach-v4 or with obs='simplified' "
+                    "(their observation has no block's Euler angles)",
+                )
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)

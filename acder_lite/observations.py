@@ -58,6 +58,9 @@ DROPPED = re.compile(
 """Names it drops: rotations and velocities. A name matching neither pattern is a layout
 this module does not know, and `simplified_indices` refuses to guess."""
 
+ROTATION = re.compile(r"^object\d*_rot\.[xyz]$")
+"""Names of the blocks' Euler angles (`object_rot`), which `sincos_angles` encodes."""
+
 AGENT_POS = ["grip_pos.x", "grip_pos.y", "grip_pos.z"]
 """The first three kept names: the trainer's agent position o[:3] must stay the
 gripper's."""
@@ -108,6 +111,27 @@ def indices(env_or_names, obs: str) -> np.ndarray:
     if obs == "full":
         return np.arange(len(names), dtype=np.int64)
     return simplified_indices(names)
+
+
+def rotation_indices(names: list[str]) -> np.ndarray:
+    """Indices (int64, increasing) of the blocks' Euler angles among `names` (the
+    observation's, `envs.obs_names`): Push 11-13, the multi-step Push 17-22, none on
+    Reach or in the simplified state."""
+    return np.array([i for i, n in enumerate(names) if ROTATION.match(n)], np.int64)
+
+
+def sincos_angles(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """`x` (..., D) with the angles at `idx` each replaced by (sin, cos): the other
+    entries in their order, then the sines, then the cosines, shape (..., D + len(idx)).
+    What S-ICM sees with `Config.sicm_angles="sincos"`.
+
+    Trap: an Euler angle jumps by about 2 pi when the block turns through +-pi
+    (`wraps.angle_wraps`), and a forward model's error on that jump, 1/2 (2 pi)^2, is
+    far above Eq. 4's clip. Its sine and cosine move by as little as the block does."""
+    x = np.asarray(x)
+    a = x[..., idx]
+    keep = np.delete(x, idx, axis=-1)
+    return np.concatenate([keep, np.sin(a), np.cos(a)], axis=-1).astype(x.dtype)
 
 
 def full_obs_names(env) -> list[str]:

@@ -33,6 +33,7 @@ COLORS = {
     "sicm-raw": "C9",
     "sicm-raw-episode-goal": "C1",
     "her-bonus": "C8",
+    "acder-sincos": "C9",
 }
 """One colour per method or experiment, the same in every figure."""
 

@@ -32,6 +32,7 @@ from .report import (
     grid_cells,
     ratios,
     seed_level,
+    separated,
     summarize,
 )
 from .runs import load_runs, planned_cells
@@ -52,6 +53,7 @@ METHOD_LABELS = {
     "sicm-raw-episode-goal": "ACDER, S-ICM on raw (o, g), "
     "restarts keep the episode's goal",
     "her-bonus": "DDPG+HER with a constant bonus",
+    "acder-sincos": "ACDER, S-ICM on (sin, cos) of the angles",
 }
 """How the paper names each method (folder names: methods,
 and our experiments' names)."""
@@ -472,6 +474,33 @@ def control_sentence(her: CellStat, icm: CellStat, bonus: CellStat) -> str:
         else "."
     )
     return text
+
+
+def sincos_sentence(acder: CellStat, sincos: CellStat) -> str:
+    """The (sin, cos) experiment read off the runs by the rule its README fixed before
+    they started (experiments/sicm-sincos/): the two mean curves' crossings in order,
+    then `report.separated` (each crossing outside the other's 95% interval) once both
+    cells have all their planned seeds."""
+    text = f"Ordered by the mean curve: {order_sentence([acder, sincos])}."
+    sep = separated(acder, sincos)
+    if sep is None:
+        left = (
+            f" ({sincos.done} of {sincos.planned} seeds of {label(sincos.name)} "
+            "finished)"
+            if sincos.planned
+            else ""
+        )
+        return text + (
+            " The rule is applied once both cells have all their planned seeds and a "
+            f"crossing with an interval{left}."
+        )
+    if not sep:
+        return text + (
+            " The runs do not separate them: a crossing lies inside the other's 95% "
+            "interval."
+        )
+    first = min((acder, sincos), key=lambda c: c.crossing)
+    return text + f" The runs separate them: {label(first.name)} crosses first."
 
 
 def order_sentence(cells: list[CellStat]) -> str:

@@ -22,6 +22,7 @@ from .curiosity import ICM, SICM
 from .ddpg import DDPG
 from .her import sample_her_transitions
 from .normalizer import Normalizer
+from .observations import rotation_indices, sincos_angles
 from .rewards import goal_factor_target, intrinsic_reward, shaped_reward
 from .rollout import Policy, StepPool, run_episodes
 from .runfiles import RunFiles, versions
@@ -121,9 +122,15 @@ class Trainer:
             self.agent.actor, self.o_norm, self.g_norm, cfg.clip_obs, dev
         )
         self.curiosity = None
+        # cfg.sicm_angles: S-ICM's input with each Euler angle as (sin, cos), one
+        # column more per angle (Config.validate allows it only where a block is seen)
+        self.sicm_angles = None
+        if sw["curiosity"] == "sicm" and cfg.sicm_angles == "sincos":
+            self.sicm_angles = rotation_indices(E.obs_names(env0))
         if sw["curiosity"] == "sicm":
+            n_extra = 0 if self.sicm_angles is None else self.sicm_angles.size
             self.curiosity = SICM(
-                s_dim, dims["u"], cfg.sicm_hidden, cfg.sicm_lr, cfg.init, dev
+                s_dim + n_extra, dims["u"], cfg.sicm_hidden, cfg.sicm_lr, cfg.init, dev
             )
         elif sw["curiosity"] == "icm":
             self.curiosity = ICM(
@@ -339,14 +346,18 @@ class Trainer:
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """What the curiosity module sees of a minibatch, s = (o, g) and s' = (o2, g).
         S-ICM: the policy's normalised inputs, or the raw ones clipped to clip_obs
-        (`Config.sicm_input`). ICM (her-icm) always the normalised ones: it learns its
-        own features of them, and the readings measured S-ICM's input only."""
+        (`Config.sicm_input`), the Euler angles as (sin, cos) with
+        `Config.sicm_angles="sincos"`. ICM (her-icm) always the normalised ones: it
+        learns its own features of them, and the readings measured S-ICM's input
+        only."""
         if self.cfg.sicm_input == "normalised" or not isinstance(self.curiosity, SICM):
             return tb["x"], tb["x2"]
         c = self.cfg.clip_obs
         g = torch.as_tensor(batch["g"], dtype=torch.float32)
 
         def cat(o):  # built on the CPU, moved once: the same bits on every device
+            if self.sicm_angles is not None:
+                o = sincos_angles(o, self.sicm_angles)
             s = torch.cat([torch.as_tensor(o, dtype=torch.float32), g], -1).clamp(-c, c)
             return s.to(self.device)
 

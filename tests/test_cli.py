@@ -42,6 +42,8 @@ def one_line_error(p, *needles):
         (["--stop-gap-episodes", "-1"], ["stop_gap_episodes", ">= 0"]),
         (["--target-clip", "nope"], ["target_clip", "'baselines'", "'wide'"]),
         (["--sicm-input", "x"], ["sicm_input", "'normalised'", "'raw'"]),
+        (["--sicm-angles", "quat"], ["sicm_angles", "'euler'", "'sincos'"]),
+        (["--method", "acder", "--sicm-angles", "sincos"], ["sicm_angles", "Euler"]),
         (["--init", "he"], ["init", "'xavier'", "'torch'"]),
         (["--buffer-scope", "global"], ["buffer_scope", "'worker'", "'shared'"]),
         (["--success-threshold", "1.5"], ["success_threshold", "(0, 1]"]),

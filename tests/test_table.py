@@ -598,3 +598,28 @@ def test_control_sentence_by_hand():
         icm, her, bonus
     )  # "ICM" slower than "HER": nothing to explain
     assert "no gain of curiosity for the constant to explain" in s
+
+
+def test_sincos_sentence_applies_the_rule_only_to_complete_cells():
+    """Two equal seeds make each interval its point: ACDER crossing at 2.9 epochs
+    (1,160 episodes) and the (sin, cos) variant at 1.9 (760) are separated; equal
+    curves are not; a cell with seeds still to come is not read."""
+    acder = cell("acder", [0.0, 0.5, 1.0, 1.0])
+    sincos = cell("acder-sincos", [0.5, 1.0, 1.0, 1.0])
+    s = T.sincos_sentence(acder, sincos)
+    assert s.startswith(
+        "Ordered by the mean curve: ACDER, S-ICM on (sin, cos) of the angles 760 < "
+        "DDPG+ACDER 1,160."
+    )
+    assert s.endswith(
+        "The runs separate them: ACDER, S-ICM on (sin, cos) of the angles "
+        "crosses first."
+    )
+    same = cell("acder-sincos", [0.0, 0.5, 1.0, 1.0])
+    assert "do not separate them" in T.sincos_sentence(acder, same)
+    sincos.planned = 3  # 2 of 3 seeds in: not the rule's yet
+    s = T.sincos_sentence(acder, sincos)
+    assert "applied once both cells have all their planned seeds" in s
+    assert "(2 of 3 seeds of ACDER, S-ICM on (sin, cos) of the angles finished)" in s
+    s = T.sincos_sentence(acder, RE.cell_stat(P, "acder-sincos", []))
+    assert "not run yet: ACDER, S-ICM on (sin, cos) of the angles" in s

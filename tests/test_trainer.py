@@ -394,3 +394,31 @@ def test_curiosity_inputs_normalised_or_raw():
     batch["o"] = batch["o"] + 1e3  # beyond clip_obs = 200: clipped, not normalised
     s, _ = tr.curiosity_inputs(batch, tr.batch_tensors(batch))
     assert float(s[:, : tr.dims["o"]].max()) == 200.0
+
+
+def test_sicm_angles_sincos_is_what_sicm_sees_and_trains_on():
+    """`sicm_angles="sincos"`: S-ICM's s and s' are the raw (o, g) with the block's
+    three Euler angles (11-13) as their sines and cosines, 3 columns wider; the model is
+    built for that width and Eq. 4's reward is taken of it. The policy's inputs are
+    unchanged."""
+    from acder_lite.observations import sincos_angles
+
+    runs = {
+        k: Trainer(tiny_config(method="acder", env="FetchPush-v4", sicm_angles=k))
+        for k in ("euler", "sincos")
+    }
+    for tr in runs.values():
+        tr.train(False)
+    euler, tr = runs["euler"], runs["sincos"]
+    assert euler.sicm_angles is None and tr.sicm_angles.tolist() == [11, 12, 13]
+    batch = tr.sample_batch()
+    tb = tr.batch_tensors(batch)
+    assert tb["x"].shape[1] == euler.batch_tensors(batch)["x"].shape[1] == 28
+    s, s2 = tr.curiosity_inputs(batch, tb)
+    assert s.shape[1] == s2.shape[1] == 31 == tr.curiosity.net[0].in_features - 4
+    for got, o in ((s, batch["o"]), (s2, batch["o2"])):
+        want = np.concatenate([sincos_angles(o, tr.sicm_angles), batch["g"]], 1)
+        np.testing.assert_allclose(got.numpy(), want, rtol=1e-6, atol=1e-7)
+    assert np.abs(s[:, 22:28].numpy()).max() <= 1.0  # sines (22-24), cosines (25-27)
+    r = tr.rewards(batch, tb).numpy()
+    assert np.isfinite(r).all() and tr.rows and np.isfinite(tr.rows[-1]["r_int_mean"])
