@@ -16,16 +16,32 @@ elsewhere, would look for different sockets. And a socket's path must fit in 107
 which a connection file under a deep runtime folder does not (pytest's tmp_path, a long
 $HOME). So each kernel gets a short absolute name of its own in the temp folder;
 jupyter_client removes the sockets when the kernel stops.
+
+A second trap, on the client's side (nbclient's, for `make book` and nbmake): a zmq
+socket wakes asyncio through an edge-triggered file descriptor, and a wake-up can be
+lost while the message itself sits in the socket's queue. jupyter_client's
+`get_msg(timeout)` then waits out its whole timeout before it looks again and finds the
+reply: `make book` stood still for 30 minutes (the chapters' cell timeout) in chapter 4,
+the kernel idle after its last cell, the client waiting for that cell's reply; a second
+client on the same kernel was answered at once. `SlicedPollChannel` looks at the socket
+at least every `POLL_SLICE` seconds, so a lost wake-up costs that much, not the
+timeout (tests/test_kernels.py reproduces the lost wake-up).
 """
 
 import functools
 import os
 import tempfile
+import time
 import uuid
+from queue import Empty
 
-from jupyter_client import AsyncKernelManager
+from jupyter_client import AsyncKernelClient, AsyncKernelManager
+from jupyter_client.channels import AsyncZMQSocketChannel
 from jupyter_server.services.kernels.kernelmanager import ServerKernelManager
-from traitlets import CaselessStrEnum
+from traitlets import CaselessStrEnum, Type
+
+POLL_SLICE = 1.0
+"""Seconds a client channel waits on its socket's wake-up before it looks again."""
 
 
 def socket_prefix() -> str:
@@ -33,10 +49,37 @@ def socket_prefix() -> str:
     return os.path.join(tempfile.gettempdir(), f"acder-kernel-{uuid.uuid4().hex}-ipc")
 
 
+class SlicedPollChannel(AsyncZMQSocketChannel):
+    """jupyter_client's async channel, whose `get_msg` polls in slices of
+    `POLL_SLICE` seconds up to its timeout (None: for ever): each slice that ends looks
+    at the socket itself, so a message whose wake-up was lost is found then."""
+
+    async def get_msg(self, timeout: float | None = None) -> dict:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            left = None if deadline is None else max(0.0, deadline - time.monotonic())
+            step = POLL_SLICE if left is None else min(POLL_SLICE, left)
+            if await self.socket.poll(int(step * 1000)):
+                return await self._recv()
+            if left is not None and left <= POLL_SLICE:
+                raise Empty
+
+
+class IPCKernelClient(AsyncKernelClient):
+    """nbclient's kernel client with `SlicedPollChannel` on every zmq channel."""
+
+    shell_channel_class = Type(SlicedPollChannel)
+    iopub_channel_class = Type(SlicedPollChannel)
+    stdin_channel_class = Type(SlicedPollChannel)
+    control_channel_class = Type(SlicedPollChannel)
+
+
 class IPCKernelManager(AsyncKernelManager):
-    """jupyter_client's kernel manager (nbclient's, nbmake's) over Unix sockets."""
+    """jupyter_client's kernel manager (nbclient's, nbmake's) over Unix sockets; its
+    clients (`km.client()`) are `IPCKernelClient`s."""
 
     transport = CaselessStrEnum(["tcp", "ipc"], default_value="ipc", config=True)
+    client_factory = Type(IPCKernelClient)
 
     def _ip_default(self) -> str:
         return socket_prefix()
