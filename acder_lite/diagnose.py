@@ -51,6 +51,7 @@ from .io import (
     write_error,
     write_json,
 )
+from .observations import sincos_names
 from .rewards import intrinsic_reward
 from .start_states import select_candidate
 from .wraps import angle_wraps
@@ -59,10 +60,15 @@ from .wraps import angle_wraps
 def state_names(trainer) -> list[str]:
     """Names of the S-ICM state s = (o, g): the observation entries, then the goal's
     (goal.x/y/z, or goal0.x ... goal1.z for the two blocks' targets of
-    FetchPushMultiStep-v0)."""
+    FetchPushMultiStep-v0). With `Config.sicm_angles="sincos"` the observation's
+    Euler angles are "sin ..." and "cos ..." entries after the others
+    (`observations.sincos_names`), as S-ICM sees them."""
     env = trainer.envs[0]
-    names = E.obs_names(env) + E.goal_names(env)
-    size = trainer.dims["o"] + trainer.dims["g"]
+    names, size = E.obs_names(env), trainer.dims["o"] + trainer.dims["g"]
+    if trainer.sicm_angles is not None:  # one entry more per angle
+        names = sincos_names(names, trainer.sicm_angles)
+        size += trainer.sicm_angles.size
+    names = names + E.goal_names(env)
     if len(names) != size:  # a changed layout must not be mislabelled silently
         raise RuntimeError(
             f"state_names: {len(names)} names for a state of {size} entries"

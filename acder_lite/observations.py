@@ -134,6 +134,15 @@ def sincos_angles(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
     return np.concatenate([keep, np.sin(a), np.cos(a)], axis=-1).astype(x.dtype)
 
 
+def sincos_names(names: list[str], idx: np.ndarray) -> list[str]:
+    """Names of `sincos_angles`'s entries, in its order: `names` (the input's) without
+    the angles at `idx`, then "sin NAME" for each angle, then "cos NAME"."""
+    gone = set(np.asarray(idx).tolist())
+    angles = [names[i] for i in idx]
+    kept = [n for i, n in enumerate(names) if i not in gone]
+    return kept + [f"sin {n}" for n in angles] + [f"cos {n}" for n in angles]
+
+
 def full_obs_names(env) -> list[str]:
     """The names of the env's full observation, whichever set the env itself gives."""
     from . import envs as E

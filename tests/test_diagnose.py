@@ -74,6 +74,20 @@ def test_curiosity_profile_does_not_train(tmp_path):
         assert bool((a == b).all())
 
 
+def test_state_names_follow_sicm_angles():
+    """With sicm_angles="sincos" the names are those of what S-ICM sees: the block's
+    three angles as sines and cosines after the other 22 entries, then the goal."""
+    tr = _push_trainer(cycles=2, epochs=1, sicm_angles="sincos")
+    tr.train(progress=False)
+    names = D.state_names(tr)
+    assert len(names) == tr.curiosity.net[0].in_features - tr.dims["u"] == 31
+    assert names[22:28] == [
+        f"{f} object_rot.{c}" for f in ("sin", "cos") for c in "xyz"
+    ] and names[28:] == ["goal.x", "goal.y", "goal.z"]
+    c = D.curiosity_profile(tr, batches=2)
+    assert all(name in names for name, _ in c["top_entries"])
+
+
 def test_curiosity_profile_finds_the_euler_wraps():
     """Every stored step made to turn the block's yaw through +-pi: every row is a wrap,
     and so is every candidate of successful episodes; with the angles still, none is."""

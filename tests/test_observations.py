@@ -16,6 +16,7 @@ from acder_lite.observations import (
     rotation_indices,
     simplified_indices,
     sincos_angles,
+    sincos_names,
 )
 from conftest import tiny_config
 
@@ -237,6 +238,15 @@ def test_sincos_angles_by_hand():
     assert y.dtype == np.float32 and y.shape == (1, 6)
     np.testing.assert_allclose(y, [[1, 2, 0, -1, -1, 0]], atol=1e-6)
     np.testing.assert_array_equal(sincos_angles(x, np.array([], np.int64)), x)
+
+
+def test_sincos_names_are_in_sincos_angles_order():
+    names = ["a", "r1", "b", "r2"]
+    got = sincos_names(names, np.array([1, 3]))
+    assert got == ["a", "b", "sin r1", "sin r2", "cos r1", "cos r2"]
+    x = np.array([10.0, 0.0, 20.0, np.pi / 2])  # a, r1, b, r2
+    y = dict(zip(got, sincos_angles(x, np.array([1, 3]))))
+    assert (y["a"], y["b"], y["sin r2"], y["cos r1"]) == pytest.approx((10, 20, 1, 1))
 
 
 def test_sincos_angles_do_not_jump_where_an_euler_angle_wraps():
