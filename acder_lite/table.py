@@ -29,6 +29,7 @@ from .report import (
     RatioStat,
     choose,
     column_tail,
+    complete,
     grid_cells,
     ratios,
     seed_level,
@@ -449,6 +450,31 @@ def control_sentence(her: CellStat, icm: CellStat, bonus: CellStat) -> str:
     crossing lies against the other two's 95% intervals."""
     cells = [her, icm, bonus]
     text = f"Ordered by the mean curve: {order_sentence(cells)}."
+    never = bonus.why == "not within budget" and complete(bonus)
+    if never and her.crossing is not None and icm.crossing is not None:
+        gain = her.crossing - icm.crossing
+        saved = (
+            f" none of the {units(icm, gain)} episodes {label(icm.name)} saves over "
+            f"{label(her.name)}"
+            if gain > 0
+            else f" nothing ({label(icm.name)} is no faster than {label(her.name)})"
+        )
+        # a crossing beyond the budget lies inside an interval only if that interval
+        # reaches beyond the budget too
+        inside = [c.high is not None and math.isinf(c.high) for c in (her, icm)]
+        rule = {
+            (True, False): "the shift does not explain ICM's gain, which is its own",
+            (False, True): "the shift explains ICM's gain",
+        }.get(tuple(inside), "the rule fixed before its runs leaves it open")
+        places = " and ".join(
+            f"{'inside' if i else 'beyond'} {label(c.name)}'s 95% interval"
+            for i, c in zip(inside, (her, icm))
+        )
+        return text + (
+            f" The constant's mean curve does not reach {bonus.threshold:.0%} within "
+            f"its budget, so the constant alone saves{saved}. That lies {places}: "
+            f"{rule}."
+        )
     if any(c.crossing is None for c in cells):
         return text + " The three can be compared once each mean curve has crossed."
     gain = her.crossing - icm.crossing

@@ -623,3 +623,27 @@ def test_sincos_sentence_applies_the_rule_only_to_complete_cells():
     assert "(2 of 3 seeds of ACDER, S-ICM on (sin, cos) of the angles finished)" in s
     s = T.sincos_sentence(acder, RE.cell_stat(P, "acder-sincos", []))
     assert "not run yet: ACDER, S-ICM on (sin, cos) of the angles" in s
+
+
+def test_control_sentence_when_the_constant_never_crosses():
+    """A complete control cell whose mean curve stays below 95% for its whole budget
+    saves none of ICM's episodes; beyond both points, the pre-registered rule leaves it
+    open; where HER's interval reaches past the budget, inside HER's and beyond ICM's,
+    the gain is ICM's own."""
+    import math
+
+    her, icm = cell("her", [0.0, 0.5, 1.0, 1.0]), cell("her-icm", [0.5, 1.0, 1.0, 1.0])
+    never = cell("her-bonus", [0.0, 0.2, 0.5, 0.6])
+    assert never.why == "not within budget"
+    s = T.control_sentence(her, icm, never)
+    assert "saves none of the 400 episodes DDPG+HER+ICM saves over DDPG+HER." in s
+    assert s.endswith(
+        "beyond DDPG+HER's 95% interval and beyond DDPG+HER+ICM's 95% interval: "
+        "the rule fixed before its runs leaves it open."
+    )
+    her.high = math.inf
+    s = T.control_sentence(her, icm, never)
+    assert s.endswith("the shift does not explain ICM's gain, which is its own.")
+    never.planned = 3  # a seed still to come: not read yet
+    s = T.control_sentence(her, icm, never)
+    assert s.endswith("can be compared once each mean curve has crossed.")
