@@ -508,6 +508,24 @@ def sincos_sentence(acder: CellStat, sincos: CellStat) -> str:
     then `report.separated` (each crossing outside the other's 95% interval) once both
     cells have all their planned seeds."""
     text = f"Ordered by the mean curve: {order_sentence([acder, sincos])}."
+    never = sincos.why == "not within budget" and complete(sincos)
+    if never and complete(acder) and acder.crossing is not None:
+        # the rule with a crossing beyond the budget: outside ACDER's interval unless
+        # that reaches beyond the budget too; ACDER's outside (sin, cos)'s unless that
+        # starts at or before ACDER's crossing
+        apart = not math.isinf(acder.high) and (
+            sincos.low is None or acder.crossing < sincos.low
+        )
+        return text + (
+            f" With (sin, cos) the mean curve does not reach {sincos.threshold:.0%} "
+            "within its budget; "
+            + (
+                f"the runs separate them: {label(acder.name)} crosses first."
+                if apart
+                else "the runs do not separate them: a crossing lies inside the "
+                "other's 95% interval."
+            )
+        )
     sep = separated(acder, sincos)
     if sep is None:
         left = (

@@ -647,3 +647,15 @@ def test_control_sentence_when_the_constant_never_crosses():
     never.planned = 3  # a seed still to come: not read yet
     s = T.control_sentence(her, icm, never)
     assert s.endswith("can be compared once each mean curve has crossed.")
+
+
+def test_sincos_sentence_when_the_variant_never_crosses():
+    """Beyond the budget lies outside ACDER's point interval, and ACDER's crossing
+    before any crossing of the variant's resamples: separated, ACDER first."""
+    acder = cell("acder", [0.0, 0.5, 1.0, 1.0])
+    never = cell("acder-sincos", [0.0, 0.2, 0.5, 0.6])
+    s = T.sincos_sentence(acder, never)
+    assert "does not reach 95% within its budget" in s
+    assert s.endswith("the runs separate them: DDPG+ACDER crosses first.")
+    acder.high = float("inf")  # ACDER's own interval reaches past the budget
+    assert "the runs do not separate them" in T.sincos_sentence(acder, never)
