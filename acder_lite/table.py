@@ -636,20 +636,34 @@ def choice_sentence(a: CellStat, b: CellStat, fallback: str, why: str) -> str:
     return f"{said}: the runs separate them, and {label(chosen)} crosses first."
 
 
+def reached(c: CellStat) -> float | None:
+    """Where a cell's mean curve reaches the threshold, for comparing cells: its
+    crossing (epochs), inf for a cell whose seeds have all ended without one (later
+    than any crossing), None while that is not known."""
+    if c.crossing is not None:
+        return c.crossing
+    return math.inf if c.why == "not within budget" and complete(c) else None
+
+
 def ablation_sentence(cells: list[CellStat], env: str) -> str:
     """Fig. 5's claims checked on one task: every ablation slower than ACDER, and
-    (curiosity, start states) still faster than HER."""
+    (curiosity, start states) still faster than HER. A cell that ended without crossing
+    counts as later than every crossing (`reached`)."""
     by = {c.name: c for c in cells if c.env == env}
     where = task_label(env)
     acder, her = by.get("acder"), by.get("her")
-    abl = [by[n] for n in ABLATIONS if n in by and by[n].crossing is not None]
-    if acder is None or acder.crossing is None or not abl:
+    abl = [by[n] for n in ABLATIONS if n in by and reached(by[n]) is not None]
+    if acder is None or reached(acder) is None or not abl:
         return (
             f"On {where} the ablations cannot be compared yet "
             f"({order_sentence([by[n] for n in ('acder',) + ABLATIONS if n in by])})."
         )
-    slower = [label(c.name) for c in abl if c.crossing > acder.crossing]
-    faster = [label(c.name) for c in abl if c.crossing <= acder.crossing]
+    full = reached(acder)
+    slower = [label(c.name) for c in abl if reached(c) > full]
+    faster = [
+        label(c.name) for c in abl if reached(c) < full or reached(c) == full < math.inf
+    ]
+    neither = [label(c.name) for c in abl if reached(c) == full == math.inf]
     text = (
         f"On {where}, ordered by the mean curve: "
         f"{order_sentence([by[n] for n in ('her', 'acder') + ABLATIONS if n in by])}. "
@@ -661,8 +675,10 @@ def ablation_sentence(cells: list[CellStat], env: str) -> str:
     )
     if faster:
         text += f"; as fast or faster, unlike the paper: {and_join(faster)}"
-    if her is not None and her.crossing is not None:
-        beat = [label(c.name) for c in abl if c.crossing < her.crossing]
+    if neither:
+        text += f"; like full ACDER, not within the budget: {and_join(neither)}"
+    if her is not None and reached(her) is not None:
+        beat = [label(c.name) for c in abl if reached(c) < reached(her)]
         text += f". Faster than DDPG+HER: {and_join(beat)}"
     return text + "."
 

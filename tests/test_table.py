@@ -659,3 +659,23 @@ def test_sincos_sentence_when_the_variant_never_crosses():
     assert s.endswith("the runs separate them: DDPG+ACDER crosses first.")
     acder.high = float("inf")  # ACDER's own interval reaches past the budget
     assert "the runs do not separate them" in T.sincos_sentence(acder, never)
+
+
+def test_ablation_sentence_reads_cells_that_never_cross():
+    """A complete cell without a crossing is later than every crossing: slower than a
+    full ACDER that crosses; where ACDER does not cross either, the two are alike; one
+    still training is left out."""
+    her, acder = cell("her", [0.0, 0.5, 1.0, 1.0]), cell("acder", [0.5, 1.0, 1.0, 1.0])
+    never = cell("acder-no-goal-factor", [0.0, 0.2, 0.5, 0.6])
+    s = T.ablation_sentence([her, acder, never], P)
+    assert "Slower than full ACDER, as in the paper: ACDER w/o goal factor." in s
+    assert "Faster than DDPG+HER: none." in s
+    acder_never = cell("acder", [0.0, 0.1, 0.2, 0.3])
+    fast = cell("acder-no-curiosity", [1.0] * 4)
+    s = T.ablation_sentence([her, acder_never, never, fast], P)
+    assert "No ablation is slower than full ACDER" in s
+    assert "as fast or faster, unlike the paper: ACDER w/o curiosity" in s
+    assert "like full ACDER, not within the budget: ACDER w/o goal factor" in s
+    never.planned = 3  # a seed still to come: not compared
+    s = T.ablation_sentence([her, acder, never], P)
+    assert s.startswith("On Push the ablations cannot be compared yet")
