@@ -88,6 +88,15 @@ None is the paper's '–'."""
 PAPER_EPISODES_PER_EPOCH = 400
 """Table I's unit: 4 workers x 100 episodes an epoch, on every task (section V-B)."""
 
+
+def paper_epochs(env: str, per_epoch: float = PAPER_EPISODES_PER_EPOCH) -> dict:
+    """Table I's numbers on `env` in epochs of `per_epoch` episodes, by method (those
+    with a number). Trap: on Reach (threshold 100%) a mean curve reaches the threshold
+    only at an evaluation, so our reading gives whole epochs there, and some of these
+    are not."""
+    return {m: v[env] / per_epoch for m, v in PAPER_TABLE_I.items() if v.get(env)}
+
+
 CARRY_EVALUATIONS = 5
 """A seed stopped by the stop rule carries the mean of this many last
 evaluations forward."""

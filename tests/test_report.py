@@ -313,3 +313,26 @@ def test_the_rule_waits_for_every_planned_seed():
     )
     one.done = 3
     assert R.complete(one) and R.separated(raw, one) is True
+
+
+def test_paper_epochs_and_reachs_whole_epochs():
+    """Table I's Reach numbers in epochs of 400 (two are not whole, which a mean
+    curve at a 100% threshold cannot give) and of Reach's own 80 (all whole)."""
+    from acder_lite.report import paper_epochs
+
+    assert paper_epochs("FetchReach-v4") == pytest.approx(
+        {"her": 5.6, "her-icm": 6.0, "her-per": 3.6, "acder": 1.0}
+    )
+    assert paper_epochs("FetchReach-v4", 80) == {
+        "her": 28.0,
+        "her-icm": 30.0,
+        "her-per": 18.0,
+        "acder": 5.0,
+    }
+    assert set(paper_epochs("FetchPush-v4")) == {
+        "her",
+        "her-icm",
+        "her-per",
+        "her-ebp",
+        "acder",
+    }
