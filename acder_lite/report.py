@@ -15,7 +15,7 @@ printing is `table`. The statistic (DESIGN.md, "Table I's statistic"):
    80);
 4. a 95% bootstrap interval over seeds resamples the seeds with replacement and reads
    each resample's mean curve the same way (`bootstrap_crossings`, `interval`);
-5. beside it, each seed's own first crossing, summarised by median and range
+5. beside it, each seed's own first crossing, summarised by median, range and mean
    (`seed_summary`).
 
 Traps:
@@ -389,16 +389,18 @@ def bootstrap_coverage(
 
 
 def seed_summary(values: list[float | None]) -> dict:
-    """Median and range of per-seed crossings, None
-    (never crossed) ranked after every number.
+    """Median, mean and range of per-seed crossings, None (never crossed) ranked after
+    every number.
 
-    Returns median, low, high (inf where the median or the slowest seed did not cross),
-    k (seeds that crossed) and n."""
+    Returns median, mean, low, high (inf where the median, any seed or the slowest seed
+    did not cross), k (seeds that crossed) and n. The mean is the reading that fits
+    Table I's Reach column (departure 29)."""
     v = np.array([math.inf if x is None else x for x in values], dtype=float)
     if not len(v):
-        return dict(median=None, low=None, high=None, k=0, n=0)
+        return dict(median=None, mean=None, low=None, high=None, k=0, n=0)
     return dict(
         median=float(np.median(v)),
+        mean=float(v.mean()),
         low=float(v.min()),
         high=float(v.max()),
         k=int(np.isfinite(v).sum()),
@@ -480,9 +482,11 @@ class CellStat:
     seed_crossings: list = field(default_factory=list)
     """Each seed's own first crossing (epochs; None where it has not crossed)."""
     seed_median: float | None = None
+    seed_mean: float | None = None
     seed_low: float | None = None
     seed_high: float | None = None
-    """Median and range of the seed crossings (inf for a seed that has not crossed)."""
+    """Median, mean and range of the seed crossings (inf for a seed that has not
+    crossed; the mean is inf if any has not)."""
     k: int = 0
     """Seeds that crossed."""
     paper: int | None = None
@@ -561,8 +565,9 @@ def cell_stat(
     c.seed_crossings = [first_crossing(s.x, s.y, thr) for s in curves]
     c.earliest = earliest_crossing(curves, max(c.planned or 0, c.n), thr)
     summ = seed_summary(c.seed_crossings)
-    c.seed_median, c.seed_low, c.seed_high, c.k = (
+    c.seed_median, c.seed_mean, c.seed_low, c.seed_high, c.k = (
         summ["median"],
+        summ["mean"],
         summ["low"],
         summ["high"],
         summ["k"],

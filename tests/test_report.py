@@ -90,6 +90,7 @@ def test_mean_curve_crossing_with_carry_forward():
     assert (c.seed_median, c.seed_low, c.seed_high, c.k) == pytest.approx(
         (4.8125, 2.0, 7.625, 2)
     )
+    assert c.seed_mean == pytest.approx((2.0 + 7.625) / 2)
     m = R.mean_curve(
         [
             R.seed_curve(run(0, A, "stop rule")["rows"], "stop rule", 10),
@@ -336,3 +337,11 @@ def test_paper_epochs_and_reachs_whole_epochs():
         "her-ebp",
         "acder",
     }
+
+
+def test_seed_summary_mean_is_inf_when_a_seed_never_crossed():
+    s = R.seed_summary([5.0, 6.0, 6.0, 5.0, 6.0])
+    assert (s["median"], s["mean"]) == (6.0, pytest.approx(5.6))  # Reach's HER: 2,240
+    s = R.seed_summary([5.0, None, 6.0])
+    assert s["mean"] == math.inf and s["median"] == 6.0 and s["k"] == 2
+    assert R.seed_summary([])["mean"] is None

@@ -679,3 +679,9 @@ def test_ablation_sentence_reads_cells_that_never_cross():
     never.planned = 3  # a seed still to come: not compared
     s = T.ablation_sentence([her, acder, never], P)
     assert s.startswith("On Push the ablations cannot be compared yet")
+
+
+def test_per_seed_column_gives_median_range_and_mean():
+    her = cell("her", [0.0, 0.5, 1.0, 1.0])  # two equal seeds, each at 2.9 epochs
+    assert T.per_seed_text(her) == "1,160 (1,160 – 1,160), mean 1,160, 2/2"
+    assert T.HEADER[5] == "Per seed: median (range), mean, crossed"
