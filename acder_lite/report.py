@@ -655,6 +655,9 @@ class RatioStat:
     seed_ratio: float | None = None
     """The ratio of the two cells' per-seed median crossings (a second reading,
     for comparison)."""
+    seed_mean_ratio: float | None = None
+    """The ratio of their per-seed mean crossings (a third: the reading that fits
+    Table I's Reach column, departure 29)."""
 
     def to_dict(self) -> dict:
         return {f.name: json_ready(getattr(self, f.name)) for f in fields(self)}
@@ -670,6 +673,7 @@ def ratio_stat(her: CellStat | None, acder: CellStat | None) -> RatioStat:
         return r
     r.ours = ratio_of(her.crossing, acder.crossing)
     r.seed_ratio = ratio_of(her.seed_median, acder.seed_median)
+    r.seed_mean_ratio = ratio_of(her.seed_mean, acder.seed_mean)
     if r.ours is None:
         if acder.crossing is None:
             r.why = f"ACDER {acder.why}"

@@ -215,13 +215,17 @@ def ratio_text(r: RatioStat) -> str:
 
 
 def ratio_rows(rs: list[RatioStat]) -> tuple[tuple, list[tuple]]:
-    """(header, rows) of the HER/ACDER ratios: ours (mean curve,
-    95% interval) and the paper's."""
+    """(header, rows) of the HER/ACDER ratios: ours (mean curve with its 95%
+    interval; the per-seed medians' and means' ratios) and the paper's."""
     header = ("HER / ACDER episodes",) + tuple(task_label(r.env) for r in rs)
     return header, [
         ("ours: mean curve [95% interval]",) + tuple(ratio_text(r) for r in rs),
         ("ours: per-seed medians",)
         + tuple("–" if r.seed_ratio is None else f"{r.seed_ratio:.1f}" for r in rs),
+        ("ours: per-seed means",)
+        + tuple(
+            "–" if r.seed_mean_ratio is None else f"{r.seed_mean_ratio:.1f}" for r in rs
+        ),
         ("paper",) + tuple("–" if r.paper is None else f"{r.paper:.1f}" for r in rs),
     ]
 

@@ -281,8 +281,8 @@ def test_table_prints_every_cell_of_the_grid(results, capsys):
     out = capsys.readouterr().out
     rows = [line for line in out.splitlines() if line.startswith("| ")]
     assert (
-        len(rows) == 1 + 23 + 4
-    )  # header, the grid's cells, the ratio table (header + 3 rows)
+        len(rows) == 1 + 23 + 5
+    )  # header, the grid's cells, the ratio table (header + 4 rows)
     # Push HER: seed 0 carries 0.95 after epoch 8; mean (0.95 + 0.98) / 2 first
     # >= 0.95 at epoch 7 (interpolated from (0.95 + 0.9) / 2 = 0.925 at epoch 6:
     # 6 + 0.025 / 0.04 = 6.625 -> 2,650 episodes)
@@ -685,3 +685,20 @@ def test_per_seed_column_gives_median_range_and_mean():
     her = cell("her", [0.0, 0.5, 1.0, 1.0])  # two equal seeds, each at 2.9 epochs
     assert T.per_seed_text(her) == "1,160 (1,160 – 1,160), mean 1,160, 2/2"
     assert T.HEADER[5] == "Per seed: median (range), mean, crossed"
+
+
+def test_ratio_rows_give_three_readings_beside_the_papers():
+    """Two equal seeds a cell: the mean curve, the seeds' medians and their means all
+    cross at 2.9 (HER) and 1.9 (ACDER) epochs."""
+    her, acder = cell("her", [0.0, 0.5, 1.0, 1.0]), cell("acder", [0.5, 1.0, 1.0, 1.0])
+    (r,) = RE.ratios([her, acder], tasks=(P,))
+    assert r.seed_mean_ratio == pytest.approx(2.9 / 1.9) == r.seed_ratio
+    header, rows = T.ratio_rows([r])
+    assert header == ("HER / ACDER episodes", "Push")
+    assert [row[0] for row in rows] == [
+        "ours: mean curve [95% interval]",
+        "ours: per-seed medians",
+        "ours: per-seed means",
+        "paper",
+    ]
+    assert rows[2][1] == "1.5" and rows[3][1] == "5.3"
