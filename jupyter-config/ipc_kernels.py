@@ -25,7 +25,7 @@ reply: `make book` stood still for 30 minutes (the chapters' cell timeout) in ch
 the kernel idle after its last cell, the client waiting for that cell's reply; a second
 client on the same kernel was answered at once. `SlicedPollChannel` looks at the socket
 at least every `POLL_SLICE` seconds, so a lost wake-up costs that much, not the
-timeout (tests/test_kernels.py reproduces the lost wake-up).
+timeout (tests/test_kernels.py stages a lost wake-up and checks both).
 """
 
 import functools
