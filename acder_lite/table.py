@@ -479,8 +479,8 @@ def control_sentence(her: CellStat, icm: CellStat, bonus: CellStat) -> str:
         )
         return text + (
             f" The constant's mean curve does not reach {bonus.threshold:.0%} within "
-            f"its budget, so the constant alone saves{saved}. That lies {places}: "
-            f"{rule}."
+            f"its budget, so the constant alone saves{saved}. Beyond the budget, its "
+            f"crossing lies {places}: {rule}."
         )
     if any(c.crossing is None for c in cells):
         return text + " The three can be compared once each mean curve has crossed."
@@ -520,8 +520,10 @@ def sincos_sentence(acder: CellStat, sincos: CellStat) -> str:
         # the rule with a crossing beyond the budget: outside ACDER's interval unless
         # that reaches beyond the budget too; ACDER's outside (sin, cos)'s unless that
         # starts at or before ACDER's crossing
-        apart = not math.isinf(acder.high) and (
-            sincos.low is None or acder.crossing < sincos.low
+        apart = (
+            acder.high is not None
+            and not math.isinf(acder.high)
+            and (sincos.low is None or acder.crossing < sincos.low)
         )
         return text + (
             f" With (sin, cos) the mean curve does not reach {sincos.threshold:.0%} "
