@@ -579,10 +579,10 @@ class Config:
                     "'euler' with sicm_input='normalised' ('sincos' "
                     "encodes the raw angles: sicm_input='raw')",
                 )
-            if self.env == "FetchReach-v4" or self.obs == "simplified":
+            if self.env not in OBJECT_ENVS or self.obs == "simplified":
                 bad(
                     "sicm_angles",
-                    "'euler' on FetchReach-v4 or with obs='simplified' "
+                    f"'euler' on {self.env} or with obs='simplified' "
                     "(their observation has no block's Euler angles)",
                 )
 

@@ -457,8 +457,7 @@ def control_sentence(her: CellStat, icm: CellStat, bonus: CellStat) -> str:
     crossing lies against the other two's 95% intervals."""
     cells = [her, icm, bonus]
     text = f"Ordered by the mean curve: {order_sentence(cells)}."
-    never = bonus.why == "not within budget" and complete(bonus)
-    if never and her.crossing is not None and icm.crossing is not None:
+    if reached(bonus) == math.inf and None not in (her.crossing, icm.crossing):
         gain = her.crossing - icm.crossing
         saved = (
             f" none of the {units(icm, gain)} episodes {label(icm.name)} saves over "
@@ -515,8 +514,7 @@ def sincos_sentence(acder: CellStat, sincos: CellStat) -> str:
     then `report.separated` (each crossing outside the other's 95% interval) once both
     cells have all their planned seeds."""
     text = f"Ordered by the mean curve: {order_sentence([acder, sincos])}."
-    never = sincos.why == "not within budget" and complete(sincos)
-    if never and complete(acder) and acder.crossing is not None:
+    if reached(sincos) == math.inf and complete(acder) and acder.crossing is not None:
         # the rule with a crossing beyond the budget: outside ACDER's interval unless
         # that reaches beyond the budget too; ACDER's outside (sin, cos)'s unless that
         # starts at or before ACDER's crossing
