@@ -51,7 +51,7 @@ from .io import (
     write_error,
     write_json,
 )
-from .observations import sincos_names
+from .observations import rotation_indices, sincos_names
 from .rewards import intrinsic_reward
 from .start_states import select_candidate
 from .wraps import angle_wraps
@@ -85,7 +85,7 @@ def n_objects(env) -> int:
 def _rot_fields(env) -> list[slice]:
     """The blocks' Euler-angle slices of the observation; none without a block, or on
     a simplified state (which drops the angles)."""
-    if not env.has_object or not any(n.endswith("_rot.x") for n in E.obs_names(env)):
+    if not len(rotation_indices(E.obs_names(env))):
         return []
     return object_fields(env, "rot")
 

@@ -400,7 +400,9 @@ class Bench:
     """The trials' envs, made once (with the full observation: the policy's entries are
     picked at every step), and one rollout per setting of the knobs."""
 
-    def __init__(self, env_id: str, obs: str = "full", trials: int = 20, seed: int = 0):
+    def __init__(
+        self, env_id: str, obs: str = "full", trials: int = PAPER_TRIALS, seed: int = 0
+    ):
         self.env_id, self.obs, self.trials, self.seed = env_id, obs, trials, seed
         self.envs = [E.make_env(env_id, seed=seed + i) for i in range(trials)]
         self.start = [(E.get_state(e), E.env_rng_state(e)) for e in self.envs]
@@ -431,7 +433,7 @@ def run_bench(
     env_id: str,
     obs: str = "full",
     knobs: dict | None = None,
-    trials: int = 20,
+    trials: int = PAPER_TRIALS,
     tolerance: float = 0.05,
     seed: int = 0,
 ) -> dict:
@@ -663,8 +665,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--trials",
         type=int,
-        default=20,
-        help="trials per level (default: 20, the paper's)",
+        default=PAPER_TRIALS,
+        help=f"trials per level (default: {PAPER_TRIALS}, the paper's)",
     )
     p.add_argument(
         "--tolerance",

@@ -27,6 +27,9 @@ def test_relabelled_goals_come_from_a_later_step_of_the_same_episode(episodes):
     assert np.all(b["g"][h, 0] == b["ep"][h])  # same episode
     assert np.all(b["g"][h, 1] > b["t"][h])  # strictly later step
     assert np.all(b["g"][h, 1] <= 50)
+    # exactly the achieved goal at future_t, the step the sampler reports
+    ag = episodes["ag"][b["ep"][h], b["future_t"][h]]
+    np.testing.assert_array_equal(b["g"][h], ag)
     assert np.all(b["g"][~h] == -7.0)  # the others keep their goal
     # relabel ratio 0.8 = 1 - 1/(1+k), k=4; 5 sigma of a binomial proportion
     sigma = np.sqrt(0.8 * 0.2 / 20_000)

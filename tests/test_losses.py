@@ -214,6 +214,23 @@ def test_polyak():
         assert torch.allclose(p, torch.full_like(p, 0.05))
 
 
+def test_sicm_step_loss_is_eq8_on_a_hand_worked_batch():
+    """L_F (Eq. 8) is the batch mean of 1/2 ||F(s, a) - s'||^2. With every weight and
+    bias at zero F predicts 0, so the rows (1, 2) and (3, 0) cost 2.5 and 4.5: L_F =
+    3.5. What `step` returns is from before its Adam step; the weights then move."""
+    m = SICM(2, 1, hidden=4, lr=1e-2)
+    for p in m.parameters():
+        torch.nn.init.zeros_(p)
+    s, a = torch.zeros(2, 2), torch.zeros(2, 1)
+    s2 = torch.tensor([[1.0, 2.0], [3.0, 0.0]])
+    err, _ = m.errors(s, a, s2)
+    assert err.tolist() == [2.5, 4.5]
+    pred, target, loss = m.step(s, a, s2)
+    assert float(loss) == 3.5
+    assert pred.abs().sum() == 0 and torch.equal(target, s2)
+    assert m.net[-1].bias.abs().sum() > 0  # the output bias took the step
+
+
 @pytest.mark.parametrize("cls", [SICM, ICM])
 def test_curiosity_losses_decrease_on_a_fixed_batch(cls):
     from acder_lite.rewards import intrinsic_reward
