@@ -214,6 +214,39 @@ def step(env, action: np.ndarray) -> tuple[dict, bool]:
     return obs, bool(env._is_success(obs["achieved_goal"], env.goal))
 
 
+def replay_difference(
+    env_id: str = "FetchPickAndPlace-v4",
+    spec: int = STATE_SPEC,
+    gymnasium_step: bool = False,
+    steps: int = 40,
+    warmup: int = 10,
+    seed: int = 0,
+) -> tuple[np.ndarray, int]:
+    """How exactly a stored state replays: `warmup` random steps, store the state
+    (`get_state` with `spec`), take `steps` random actions, restore the state in the
+    same env and take the same actions again.
+
+    Returns the largest |difference| of the observation at each replayed step (zeros:
+    bit for bit) and the stored state's size. `gymnasium_step` steps with the env's
+    own `env.step` instead of ours (`step`), whose kinematics lag a substep behind.
+    Chapter 6 compares `STATE_SPEC` with `mjSTATE_FULLPHYSICS` and the two steps.
+    """
+    env = make_env(env_id, seed=seed)
+    rng = np.random.default_rng(seed)
+
+    def obs_after(a):
+        return (env.step(a) if gymnasium_step else step(env, a))[0]["observation"]
+
+    for _ in range(warmup):
+        obs_after(rng.uniform(-1, 1, 4))
+    state = get_state(env, spec=spec)
+    actions = rng.uniform(-1, 1, (steps, 4))
+    original = np.array([obs_after(a) for a in actions])
+    set_state(env, state, spec=spec)  # and mj_forward, as every restore
+    restored = np.array([obs_after(a) for a in actions])
+    return np.abs(restored - original).max(axis=1), state.size
+
+
 def env_rng_state(env) -> dict:
     return env.np_random.bit_generator.state
 

@@ -1,3 +1,4 @@
+import mujoco
 import numpy as np
 import pytest
 
@@ -22,6 +23,18 @@ def test_restored_state_reproduces_next_20_steps_exactly(env_id):
         got = E.step(b, u)[0]
         for k in ("observation", "achieved_goal"):
             np.testing.assert_array_equal(got[k], want[k])
+
+
+def test_replay_difference_tells_the_state_specs_and_steps_apart():
+    """Chapter 6's measurement: our state and step replay bit for bit; FULLPHYSICS
+    alone (no warm start) or gymnasium's own step (a substep behind) do not."""
+    d, n = E.replay_difference(steps=30)
+    assert d.shape == (30,) and n == E.state_size(E.make_env("FetchPickAndPlace-v4"))
+    assert not d.any()
+    full = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    d_full, n_full = E.replay_difference(steps=30, spec=full)
+    assert n_full < n and d_full.max() > 0
+    assert E.replay_difference(steps=30, gymnasium_step=True)[0].max() > 0
 
 
 @pytest.mark.parametrize("env_id", ["FetchPush-v4", "FetchPickAndPlace-v4"])
