@@ -134,7 +134,14 @@ def cmd_train(args) -> int:
             ckpt = packed.unpack(args.resume)
             ckpt_path = os.path.join(args.resume, packed.FOLDER)
         elif ckpt is None:
-            ckpt = load_torch(ckpt_path)  # the one-line error of a missing file
+            if not os.path.exists(ckpt_path):
+                raise CheckpointError(
+                    f"train: --resume {args.resume!r} holds no checkpoint.pt (nor "
+                    f"a packed {packed.FOLDER}/); allowed: a run folder train has "
+                    "saved a checkpoint in (a run stopped in its first epoch has "
+                    "none: start it again with --out)"
+                )
+            ckpt = load_torch(ckpt_path)  # the one-line error of an unreadable file
         # load_torch checked that a checkpoint has all its parts
         if "buffer" not in ckpt:
             raise CheckpointError(
@@ -170,19 +177,31 @@ def cmd_train(args) -> int:
     else:
         if not args.out:
             raise UsageError("train: --out DIR is required (or --resume DIR)")
-        if os.path.exists(os.path.join(args.out, "checkpoint.pt")) or os.path.exists(
-            os.path.join(args.out, "progress.csv")
-        ):
+        if os.path.exists(os.path.join(args.out, "checkpoint.pt")):
             raise UsageError(
                 f"train: --out {args.out!r} already holds a run; "
                 "allowed: a new folder, "
                 f"or --resume {args.out} to continue it"
             )
+        if os.path.exists(os.path.join(args.out, "progress.csv")):
+            raise UsageError(
+                f"train: --out {args.out!r} holds the progress.csv of a run with no "
+                "checkpoint to continue from (killed in its first epoch?); allowed: "
+                "a new folder, or remove its progress.csv to start the run again"
+            )
         cfg = Config(**given)
         cfg.resolve()  # the one-line error of a bad option, before a folder is made
+        made = not os.path.exists(args.out)
         _make_run_folder(args.out)
         out = args.out
-        trainer = Trainer(cfg, out, command=_command_line(args.argv))
+        try:
+            trainer = Trainer(cfg, out, command=_command_line(args.argv))
+        except (
+            BaseException
+        ):  # e.g. out of memory for the buffer: leave no empty folder
+            if made and not os.listdir(out):
+                os.rmdir(out)
+            raise
     from .precision import warning_if_slow
 
     slow = warning_if_slow(trainer.cfg.update_dtype)
@@ -194,11 +213,20 @@ def cmd_train(args) -> int:
     try:
         rows = trainer.train(progress=not args.quiet)
     except KeyboardInterrupt:
-        print(
-            f"interrupted: the last checkpoint is in {out}; continue with "
-            f"`python -m acder_lite train --resume {out}`",
-            file=sys.stderr,
-        )
+        if os.path.exists(os.path.join(out, "checkpoint.pt")) or packed.has_packed(out):
+            print(
+                f"interrupted: the last checkpoint is in {out}; continue with "
+                f"`python -m acder_lite train --resume {out}`",
+                file=sys.stderr,
+            )
+        else:  # a new run stopped in its first epoch: nothing to resume from
+            gone = _drop_unsaved_run(out)
+            print(
+                f"interrupted before the first checkpoint: nothing in {out} to resume "
+                f"(removed its {', '.join(gone) or 'nothing'}); start it again with "
+                "the same command",
+                file=sys.stderr,
+            )
         return 130
     last = rows[-1] if rows else {}
     print(
@@ -207,6 +235,30 @@ def cmd_train(args) -> int:
         f"test_success={last.get('test_success', float('nan')):.3f}"
     )
     return 0
+
+
+def _drop_unsaved_run(out: str) -> list[str]:
+    """Remove the run files a new run wrote before its first checkpoint (config.json,
+    progress.csv), so the folder can be started again with the same command; a sweep
+    then sees the cell as new, not as one it cannot resume. Returns what it removed."""
+    from .io import RUN_FILES
+
+    gone = []
+    for name in RUN_FILES:
+        path = os.path.join(out, name)
+        if os.path.isfile(path):
+            os.remove(path)
+            gone.append(name)
+    return gone
+
+
+def _out_of_memory(e: BaseException) -> bool:
+    """numpy's MemoryError, or torch's allocator failing (a RuntimeError whose text
+    says it could not allocate)."""
+    text = str(e).lower()
+    return isinstance(e, MemoryError) or (
+        isinstance(e, RuntimeError) and "allocate" in text and "memory" in text
+    )
 
 
 def _make_run_folder(out: str) -> None:
@@ -238,8 +290,13 @@ def _check_run_json(run: str) -> None:
     import json
 
     path = os.path.join(run, "config.json")
-    if not os.path.isfile(path):
+    if not os.path.exists(path):
         return  # written anew
+    if not os.path.isfile(path):
+        raise CheckpointError(
+            f"run folder {run!r}: its config.json is not a file; allowed: the "
+            "config.json train wrote (or none, to have it written anew)"
+        )
     try:
         with open(path, encoding="utf-8") as f:
             d = json.load(f)
@@ -254,6 +311,12 @@ def _check_run_json(run: str) -> None:
             f"run folder {run!r}: its config.json holds a {type(d).__name__}, not a "
             "JSON object; allowed: the config.json train wrote (fix it, or move it "
             "away to have it written anew)"
+        )
+    if not isinstance(d.get("resumes", []), list):
+        raise CheckpointError(
+            f'run folder {run!r}: its config.json\'s "resumes" is a '
+            f"{type(d['resumes']).__name__}, not a list; allowed: the config.json "
+            "train wrote (fix it, or move it away to have it written anew)"
         )
 
 
@@ -404,6 +467,16 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except (MemoryError, RuntimeError) as e:
+        if not _out_of_memory(e):
+            raise
+        first = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
+        print(
+            f"error: out of memory ({first}); allowed: sizes this machine can hold "
+            "(buffer_size, hidden, batch_size, workers)",
+            file=sys.stderr,
+        )
+        return 2
     except BrokenPipeError:
         # the reader went away (`table | head`): stop quietly, and keep Python's own
         # flush at exit from failing again on the closed pipe

@@ -228,6 +228,11 @@ def parse_perturb(
                 f"perturb {name!r} is not a perturbation; allowed: {', '.join(KNOBS)}"
             )
         knob = KNOBS[name]
+        if name in out:  # the later one would silently win
+            raise ConfigError(
+                f"perturb {name!r} is given twice; allowed: each knob once, with all "
+                f"its levels (--perturb {name}=L1,L2,...)"
+            )
         if name not in applicable(env_id):
             raise ConfigError(
                 f"perturb {name!r} needs a block; {env_id} has none "

@@ -159,6 +159,10 @@ def test_existing_run_is_not_overwritten_and_checkpoint_errors(cli, tmp_path):
     _bad_input_on_a_finished_run(cli, tmp_path, out)
 
 
+def _files(folder):
+    return [f for f in os.listdir(folder) if (folder / f).is_file()]
+
+
 def _bad_input_on_a_finished_run(cli, tmp_path, out):
     """The commands that read a run, given bad input next to a good run: one line each,
     and nothing already written changes."""
@@ -168,15 +172,19 @@ def _bad_input_on_a_finished_run(cli, tmp_path, out):
     keep.write_text("an earlier export")
     # a resumed run rewrites config.json at its start: one it cannot read is refused
     # before anything is trained or written
-    for text in ('{"config": ', "[1, 2]"):
+    for text in ('{"config": ', "[1, 2]", '{"resumes": 5}', None):
         broken = tmp_path / "broken"
         shutil.rmtree(broken, ignore_errors=True)
         shutil.copytree(out, broken)
-        (broken / "config.json").write_text(text)
-        files = {f: (broken / f).read_bytes() for f in os.listdir(broken)}
+        if text is None:  # a folder where the file should be
+            (broken / "config.json").unlink()
+            (broken / "config.json").mkdir()
+        else:
+            (broken / "config.json").write_text(text)
+        files = {f: (broken / f).read_bytes() for f in _files(broken)}
         p = cli("train", "--resume", str(broken), "--epochs", "2", "--quiet")
         one_line_error(p, "config.json", "allowed:")
-        assert {f: (broken / f).read_bytes() for f in os.listdir(broken)} == files
+        assert {f: (broken / f).read_bytes() for f in _files(broken)} == files
     before = {f: (out / f).read_bytes() for f in os.listdir(out)}
     for args, needles in (
         (("export", str(out), "--out", str(keep)), ["out=", "already exists"]),
@@ -197,6 +205,11 @@ def _bad_input_on_a_finished_run(cli, tmp_path, out):
         (("diagnose", str(out), "--seed", "-1", "--episodes", "1"), ["seed=-1"]),
         (("robust", str(out), "--seed", "-1"), ["seed=-1", ">= 0"]),
         (
+            ("robust", str(out), "--perturb", "action_delay=1")
+            + ("--perturb", "action_delay=2"),
+            ["action_delay", "given twice", "allowed:"],
+        ),
+        (
             ("robust", str(out), "--csv", str(out / "progress.csv")),
             ["csv=", "would overwrite a run's file"],
         ),
@@ -215,6 +228,41 @@ def _bad_input_on_a_finished_run(cli, tmp_path, out):
     ):
         p = cli("table", "--results", str(results), "--plan", str(plan))
         one_line_error(p, *needles)
+
+
+def test_a_buffer_too_large_for_memory_is_one_line_and_no_folder(cli, tmp_path):
+    out = tmp_path / "huge"
+    p = cli(
+        *("train", "--env", "FetchReach-v4", "--buffer-size", str(10**14), *TINY),
+        *("--out", str(out)),
+    )
+    one_line_error(p, "out of memory", "buffer_size")
+    assert not out.exists()
+
+
+def test_ctrl_c_in_the_first_epoch_leaves_a_run_to_start_again(cli, tmp_path):
+    """Stopped before its first checkpoint, a run has nothing to resume: its files go,
+    and the same command starts it again (a sweep sees a new cell, not a stuck one)."""
+    out = tmp_path / "run"
+    cmd = [*"train --env FetchReach-v4 --epochs 1".split(), *TINY, "--out", str(out)]
+    long = [*cmd, "--cycles", "500", "--eval-every-cycles", "1"]  # the later --cycles
+    p = subprocess.Popen(
+        [sys.executable, "-m", "acder_lite", *long],
+        cwd=ROOT,
+        env=dict(os.environ, PYTHONPATH=ROOT),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.time() + 120
+    while not (out / "progress.csv").exists() and time.time() < deadline:
+        time.sleep(0.1)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130 and "before the first checkpoint" in err, err
+    assert not (out / "checkpoint.pt").exists() and os.listdir(out) == []
+    one_line_error(cli("train", "--resume", str(out)), "no checkpoint.pt", "--out")
+    assert cli(*cmd).returncode == 0 and (out / "done.json").exists()
 
 
 def test_ctrl_c_leaves_a_checkpoint_to_resume(tmp_path):
