@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import os
 import shlex
 import sys
@@ -33,6 +34,15 @@ from .report import episodes_to_threshold, threshold
 REQUIRED_COLUMNS = ("episodes", "test_success")
 """progress.csv columns every run has (`epoch` too since protocol v1,
 but not required)."""
+
+COLUMN_RANGES = {
+    "test_success": (0.0, 1.0, "a number in [0, 1]"),
+    "episodes": (0.0, math.inf, "a finite number >= 0"),
+    "epoch": (0.0, math.inf, "a finite number >= 0"),
+}
+"""(low, high, what is allowed) of the numeric progress.csv columns `read_progress`
+checks. Trap: float() reads "nan" and "inf", and a test_success of 7 in every row
+would turn "not within budget" into a crossing."""
 
 
 class RunError(ValueError):
@@ -76,8 +86,8 @@ def read_progress(path: str | Path) -> list[dict]:
     """The rows of a progress.csv, numeric fields as floats.
 
     Raises RunError when it is missing, has no `episodes` or `test_success` column, or a
-    row whose `episodes`/`test_success`/`epoch` is not a number or has more fields than
-    the header."""
+    row with more fields than the header or whose `episodes`/`test_success`/`epoch` is
+    not a number in its `COLUMN_RANGES` (nan and inf are refused)."""
     path = Path(path)
     if not path.exists():
         raise RunError("no progress.csv yet (no evaluation written)")
@@ -94,11 +104,17 @@ def read_progress(path: str | Path) -> list[dict]:
                     raise RunError(
                         f"progress.csv line {i} has more fields than its header"
                     )
-                row = {k: number(v) for k, v in row.items()}
+                raw, row = row, {k: number(v) for k, v in row.items()}
                 for c in REQUIRED_COLUMNS + (("epoch",) if "epoch" in header else ()):
                     if not isinstance(row[c], float):
                         raise RunError(
                             f"progress.csv line {i}: {c} {row[c]!r} is not a number"
+                        )
+                    low, high, allowed = COLUMN_RANGES[c]
+                    if not low <= row[c] <= high or math.isinf(row[c]):
+                        raise RunError(
+                            f"progress.csv line {i}: {c} {raw[c]!r} is out of range; "
+                            f"allowed: {allowed}"
                         )
                 rows.append(row)
     except (OSError, UnicodeDecodeError, csv.Error) as e:
@@ -120,14 +136,66 @@ def read_json(path: Path, what: str) -> dict:
     return d
 
 
+def shown(v) -> str:
+    """A JSON value for a one-line reason: short ones as they are, lists and objects by
+    kind (they can be long)."""
+    if isinstance(v, dict):
+        return "an object"
+    if isinstance(v, list):
+        return "a list"
+    text = json.dumps(v)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def check_outer_fields(whole: dict) -> None:
+    """RunError naming the first field of config.json outside "config" that is there
+    but not of the type `read_run`, `planned_epochs` and `grid_time` read it as
+    (train and sweep write them so; absent is fine). Trap: shlex.split(None) reads
+    stdin, so a null "command" would hang `table` instead of failing."""
+
+    def need(name, value, kind, allowed):
+        if not isinstance(value, kind):
+            raise RunError(f"config.json: {name} is {shown(value)}; allowed: {allowed}")
+
+    if "command" in whole:
+        need("command", whole["command"], str, "a string (the train command)")
+    if "versions" in whole:
+        need("versions", whole["versions"], dict, "an object")
+    if "resumes" in whole:
+        need("resumes", whole["resumes"], list, "a list of objects, one per resume")
+        for i, r in enumerate(whole["resumes"]):
+            name = f"resumes[{i}]"
+            need(name, r, dict, "an object, as train appends one per resume")
+            if "command" in r:
+                need(f"{name}.command", r["command"], str, "a string")
+            if "versions" in r:
+                need(f"{name}.versions", r["versions"], dict, "an object")
+    if "same_as" in whole:
+        allowed = 'an object with "run", the folder the sweep copied it from'
+        need("same_as", whole["same_as"], dict, allowed)
+        run = whole["same_as"].get("run")
+        if not isinstance(run, str) or not run:
+            raise RunError(
+                f"config.json: same_as.run is {shown(run)}; allowed: a non-empty "
+                "string (the folder the sweep copied this run from)"
+            )
+
+
 def read_config(d: Path) -> dict:
     """config.json of run folder `d` (the whole file), its "config" upgraded to today's
-    fields (`config.upgrade_legacy`) and checked by `Config.validate`. RunError if it
-    cannot be used."""
+    fields (`config.upgrade_legacy`) and checked by `Config.validate`, the fields
+    around it by `check_outer_fields`. RunError if it cannot be used."""
     whole = read_json(d / "config.json", "config.json")
     cfg = whole.get("config")
     if not isinstance(cfg, dict):
         raise RunError('config.json has no "config" object')
+    check_outer_fields(whole)
+    if "switches" in cfg and not isinstance(cfg["switches"], dict):
+        # upgrade_legacy reads a protocol-v1 target_clip out of it before validate
+        raise RunError(
+            f"config.json: config.switches is {shown(cfg['switches'])}; "
+            "allowed: an object"
+        )
     try:
         up = upgrade_legacy(cfg)
         Config.from_dict(up).validate()
@@ -155,7 +223,7 @@ def epochs_option(command: str) -> int | None:
             else None
         )
         if v is not None:
-            return int(v) if v.isdigit() else None
+            return int(v) if v.isdecimal() else None  # "²".isdigit(), int("²") fails
     return None
 
 

@@ -5,13 +5,14 @@ import argparse
 import csv
 import json
 import math
+import subprocess
 
 import pytest
 
 from acder_lite import cli, report as RE, runs as RU, table as T
 from acder_lite.config import TASK_PRESETS
 
-from conftest import push_cell
+from conftest import push_cell, run_cli
 
 
 def make_run(
@@ -182,6 +183,8 @@ def test_planned_epochs():
         == 50
     )
     assert RU.planned_epochs(dict(config=cfg, command=train + " --epochs=40")) == 40
+    # "²".isdigit() but int("²") fails: an unreadable --epochs, not a crash
+    assert RU.planned_epochs(dict(config=cfg, command=train + " --epochs ²")) == 18
     assert (
         RU.planned_epochs(
             dict(config=cfg, command=train, resumes=[dict(command="x --threads 2")])
@@ -268,6 +271,126 @@ def test_malformed_run_folders_are_skipped(results, capsys):
     ]:
         (line,) = [x for x in err if f"/{name}/seed0" in x]
         assert line.startswith("skipped ") and why in line
+
+
+def edit_config(d, change):
+    """Rewrite run folder `d`'s config.json after `change(whole)` edits it in place."""
+    whole = json.loads((d / "config.json").read_text())
+    change(whole)
+    (d / "config.json").write_text(json.dumps(whole))
+
+
+MISTYPED = {
+    # name: (edit of the whole config.json, what the skip line must say)
+    "command-int": (lambda w: w.update(command=5), "command is 5; allowed: a string"),
+    # shlex.split(None) reads stdin: a null command must fail, not wait for input
+    "command-null": (
+        lambda w: w.update(command=None),
+        "command is null; allowed: a string",
+    ),
+    "same_as-str": (
+        lambda w: w.update(same_as="x"),
+        'same_as is "x"; allowed: an object with "run"',
+    ),
+    "same_as-run": (
+        lambda w: w.update(same_as=dict(run=5)),
+        "same_as.run is 5; allowed: a non-empty string",
+    ),
+    "resumes-str": (
+        lambda w: w.update(resumes="x"),
+        'resumes is "x"; allowed: a list of objects',
+    ),
+    "resumes-item": (
+        lambda w: w.update(resumes=[5]),
+        "resumes[0] is 5; allowed: an object",
+    ),
+    "resumes-command": (
+        lambda w: w.update(resumes=[dict(command=["--epochs", "3"])]),
+        "resumes[0].command is a list; allowed: a string",
+    ),
+    "versions-str": (
+        lambda w: w.update(versions="x"),
+        'versions is "x"; allowed: an object',
+    ),
+    "config-list": (lambda w: w.update(config=[1]), 'has no "config" object'),
+    # a protocol-v1 config (no target_clip) has it read out of switches
+    "switches-str": (
+        lambda w: w["config"].update(method="acder-baselines-clip", switches="x"),
+        'config.switches is "x"; allowed: an object',
+    ),
+    "seed-str": (lambda w: w["config"].update(seed="1"), "seed='1' is not allowed"),
+    "env-list": (lambda w: w["config"].update(env=[P]), "env=['FetchPush-v4'] is not"),
+}
+
+IMPOSSIBLE = {
+    # name: (column, value in the second row, what the skip line must say)
+    "success-7": ("test_success", "7", "test_success '7' is out of range"),
+    "success-nan": ("test_success", "nan", "test_success 'nan' is out of range"),
+    "success-inf": ("test_success", "inf", "test_success 'inf' is out of range"),
+    "success-negative": ("test_success", "-0.1", "test_success '-0.1' is out of"),
+    "episodes-inf": ("episodes", "inf", "episodes 'inf' is out of range"),
+    "episodes-negative": ("episodes", "-400", "episodes '-400' is out of range"),
+    "episodes-nan": ("episodes", "NaN", "episodes 'NaN' is out of range"),
+    "epoch-inf": ("epoch", "Infinity", "epoch 'Infinity' is out of range"),
+}
+
+
+def spoil_progress(d, column, value):
+    """Put `value` in `column` of the second evaluation (line 3) of `d`'s
+    progress.csv."""
+    with open(d / "progress.csv", newline="") as f:
+        rows = list(csv.reader(f))
+    rows[2][rows[0].index(column)] = value
+    with open(d / "progress.csv", "w", newline="") as f:
+        csv.writer(f).writerows(rows)
+
+
+def test_mistyped_config_and_impossible_progress_are_skipped(results, capsys):
+    # each was taken as data (a 7, inf or nan in progress.csv) or crashed table with
+    # an AttributeError (a command of 5, a same_as of "x", ...) before
+    for name, (change, _) in MISTYPED.items():
+        edit_config(make_run(results, P, name, 0, [0.5, 0.6], method="her"), change)
+    for name, (column, value, _) in IMPOSSIBLE.items():
+        d = make_run(results, P, name, 0, [0.5, 0.6, 0.7], method="her")
+        spoil_progress(d, column, value)
+    assert cli.main(["table", "--results", str(results), "--resamples", "20"]) == 0
+    cap = capsys.readouterr()
+    assert "| Push | DDPG+HER (`her`) | 2 done |" in cap.out  # the good runs are read
+    err = cap.err.splitlines()
+    assert len(err) == len(MISTYPED) + len(IMPOSSIBLE)  # one line per bad folder
+    whys = {n: ("config.json", w) for n, (_, w) in MISTYPED.items()}
+    whys.update(
+        {n: ("progress.csv line 3: ", w) for n, (_, _, w) in IMPOSSIBLE.items()}
+    )
+    for name, (where, why) in whys.items():
+        (line,) = [x for x in err if f"/{name}/seed0: {where}" in x]
+        assert line.startswith("table: skipped ") and why in line, line
+
+
+def test_run_with_well_typed_optional_fields_is_read(tmp_path):
+    # what train and sweep write around "config" still reads, values at their limits
+    d = make_run(tmp_path, P, "her", 0, [0.0, 1.0], epochs=2, done="budget")
+    edit_config(
+        d,
+        lambda w: w.update(
+            resumes=[dict(command="train --resume R --epochs 2", versions={})],
+            same_as=dict(run="../../../../elsewhere/FetchPush-v4/her/seed0"),
+        ),
+    )
+    (run,) = RU.load_runs(tmp_path, warn=pytest.fail)
+    assert [r["test_success"] for r in run["rows"]] == [0.0, 1.0]
+    assert run["same_as"].endswith("elsewhere/FetchPush-v4/her/seed0")
+
+
+def test_table_exits_2_when_every_run_is_mistyped(tmp_path):
+    d = make_run(tmp_path, P, "her", 0, [0.5, 0.6])
+    edit_config(d, lambda w: w.update(command=None))
+    spoil_progress(make_run(tmp_path, P, "acder", 0, [0.5, 0.6]), "test_success", "7")
+    # stdin closed: the old reader waited on it for a null command
+    p = run_cli("table", "--results", str(tmp_path), stdin=subprocess.DEVNULL)
+    assert p.returncode == 2 and p.stdout == ""
+    assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
+    assert f"no readable run under {str(tmp_path)!r} (2 folder(s) skipped" in p.stderr
 
 
 def args(results, fmt="markdown", plan=None):
