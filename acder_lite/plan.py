@@ -25,7 +25,8 @@ class Cell:
     out: Path
     action: str
     """'run' (fresh), 'resume' (checkpoint.pt or checkpoint.packed/, no done.json),
-    'copy' (a finished `same_as` run) or 'skip' (see `plan_cell`)."""
+    'copy' (a finished `same_as` run) or 'skip' (done, on hold, waiting for its
+    `same_as` run, or a progress.csv it cannot resume: see `plan_cell`)."""
     note: str = ""
     """Why a cell is skipped, or what was found in its directory."""
     options: dict = field(default_factory=dict)
@@ -61,18 +62,23 @@ def cell_state(out: Path) -> str:
 
 
 def plan_cell(cell: Cell) -> Cell:
-    """`cell` with its action (and note) set from its config and what its
-    folder holds: 'run', 'resume', 'skip', or 'copy' (a `same_as` run that has
-    finished and has this cell's config; PlanError if its config differs)."""
-    # the one check of names and values: Config's own (an EBP cell on Reach, a bad
-    # option)
+    """`cell` with its action (and note) set from what its folder holds: 'run',
+    'resume', 'skip', or 'copy' (a `same_as` run that has finished and has this cell's
+    config). PlanError (one line) if Config refuses the cell or its `same_as` run's
+    config differs.
+
+    Trap: a cell Config refuses (EBP on Reach, a seed >= 2**64) was a 'skip' with
+    exit 0, meant for an `--envs` x `--methods` grid with gaps, and it hid mistakes
+    too. A grid with gaps is a plan file of gapless groups; `check_names` and
+    `check_pairs` refuse a bad cell before any is planned, and this is the backstop."""
     try:
         config = Config(
             **dict(cell.options, env=cell.env, method=cell.method, seed=cell.seed)
         ).resolve()
     except (ConfigError, TypeError) as e:
-        cell.action, cell.note = "skip", str(e)
-        return cell
+        raise PlanError(
+            f"the cell ({cell.env}, {cell.method}, seed {cell.seed}): {e}"
+        ) from None
     state = cell_state(cell.out)
     if state == "done":
         cell.action, cell.note = "skip", "already complete"
@@ -147,6 +153,10 @@ _GROUP_KEYS = {
 }
 
 
+_TOP_KEYS = ("defaults", "group")
+"""A plan file's top-level keys: `[defaults]` and `[[group]]`."""
+
+
 def read_plan(path: str | Path) -> list[Cell]:
     """The cells of a plan file (TOML), in the order they are to start,
     each with its action.
@@ -161,7 +171,9 @@ def read_plan(path: str | Path) -> list[Cell]:
     `same_as.check`; needs one env and one method). A
     `[defaults]` table gives every group its keys (a group's own win; `config` tables
     merge). Cells of different queues alternate, so two queues share the cores; within a
-    queue they keep the file's order.
+    queue they keep the file's order. Any other top-level key, and any (env, method)
+    pair of a group that Config refuses with its `config`, is a PlanError: a group is
+    a grid without gaps (a grid with EBP on Push, not Reach: two groups).
     """
     import tomllib
 
@@ -177,6 +189,12 @@ def read_plan(path: str | Path) -> list[Cell]:
         raise PlanError(
             f"plan {str(path)!r} is not valid TOML: not UTF-8 text"
         ) from None
+    unknown = sorted(set(doc) - set(_TOP_KEYS))
+    if unknown:  # a typo ([default], [[groups]]) would drop its tables silently
+        raise PlanError(
+            f"plan {str(path)!r}: unknown top-level key {unknown[0]!r}; "
+            "allowed: [defaults] and [[group]] tables"
+        )
     groups = doc.get("group")
     if not isinstance(groups, list) or not groups:
         raise PlanError(
@@ -226,10 +244,9 @@ def read_plan(path: str | Path) -> list[Cell]:
                 f"{len(g['envs'])} and {len(g['methods'])}"
             )
         options = g["config"]
-        try:
-            Config(**dict(options, env=g["envs"][0], method=g["methods"][0])).resolve()
-        except (ConfigError, TypeError) as e:
-            raise PlanError(f"{where}: config: {e}") from None
+        problem = check_pairs(g["envs"], g["methods"], options)
+        if problem:
+            raise PlanError(f"{where}: {problem}")
         root = Path(os.path.normpath(path.parent / g.get("root", ".")))
         for env, method, seed in itertools.product(g["envs"], g["methods"], g["seeds"]):
             out = run_dir(root, env, g.get("name", method), seed)
@@ -307,6 +324,23 @@ def check_names(envs, methods, seeds) -> str | None:
             return f"unknown method {method!r}; allowed: {', '.join(METHODS)}"
     if any(isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in seeds):
         return "seeds must be integers >= 0"
+    if any(s >= 2**64 for s in seeds):
+        return "seeds must be integers < 2**64 (torch.manual_seed's range)"
     if len(set(seeds)) != len(seeds):
         return "seeds must be distinct"
+    return None
+
+
+def check_pairs(envs, methods, options: dict | None = None) -> str | None:
+    """The first (env, method) pair of a grid that Config refuses, alone or with
+    `options` (a group's `config`), as one line naming the pair, or None.
+
+    Trap: checking only the first pair let the others (EBP on Reach, sicm_angles on
+    Reach) become skipped cells with exit 0."""
+    for env, method in itertools.product(envs, methods):
+        for what, fields_ in (("the pair", {}), ("config on the pair", options or {})):
+            try:
+                Config(**dict(fields_, env=env, method=method)).resolve()
+            except (ConfigError, TypeError) as e:
+                return f"{what} ({env}, {method}): {e}"
     return None

@@ -42,8 +42,16 @@ import time
 from pathlib import Path
 
 from . import cluster, grid_time, same_as
-from .config import ENV_IDS, Config, ConfigError
-from .plan import Cell, PlanError, cell_state, check_names, plan, read_plan
+from .config import Config, ConfigError
+from .plan import (
+    Cell,
+    PlanError,
+    cell_state,
+    check_names,
+    check_pairs,
+    plan,
+    read_plan,
+)
 
 EXIT_INTERRUPTED = 130
 """Return code after Ctrl-C (128 + SIGINT), as a shell reports it."""
@@ -155,7 +163,8 @@ def passed_options(args) -> dict:
 
 def check_args(args) -> str | None:
     """The first problem with the options, as one line, or None.
-    Fills the default of jobs."""
+    Fills the default of jobs. Config's verdict on them, cell by cell, is
+    `check_cells` (after planning: a plan's pairs are in its file)."""
     grid = [args.envs, args.methods, args.seeds]
     if args.plan is not None:
         if any(x is not None for x in grid):
@@ -169,16 +178,18 @@ def check_args(args) -> str | None:
         problem = check_names(*grid)
         if problem:
             return problem
+        problem = check_pairs(args.envs, args.methods)
+        if problem:  # EBP on Reach: no cell to skip silently
+            return (
+                f"--envs x --methods: {problem}; a grid with gaps is a plan "
+                "file (--plan), one group per gapless grid"
+            )
     if args.threads < 1:
         return f"--threads={args.threads} is not allowed: an integer >= 1"
     if args.jobs is None:
         args.jobs = max(1, (os.cpu_count() or 1) // args.threads)
     if args.jobs < 1:
         return f"--jobs={args.jobs} is not allowed: an integer >= 1"
-    try:  # the passed options, checked by Config itself (one line naming the field)
-        Config(env=ENV_IDS[0], **passed_options(args)).resolve()
-    except ConfigError as e:
-        return str(e)
     try:
         extra = shlex.split(args.train_args or "")
     except ValueError as e:
@@ -187,13 +198,25 @@ def check_args(args) -> str | None:
         return (
             "--train-args may not hold --out or --resume; the sweep sets them per cell"
         )
-    return _check_train_args(extra, args)
+    problem = _train_options(extra)
+    return problem if isinstance(problem, str) else None
 
 
-def _check_train_args(extra: list[str], args) -> str | None:
-    """--train-args as train reads them, checked before any cell starts (else every
-    cell would fail in its train.log): options train has, values Config allows, none
-    of the cell's own (env, method, seed)."""
+_OWN = {
+    **{name: "--" + name.replace("_", "-") for name in _PASSED},
+    "threads": "--threads",
+}
+"""The Config fields sweep has an option of its own for, and that option."""
+
+
+def _train_options(extra: list[str]) -> dict | str:
+    """--train-args as train reads them: the Config fields they set, or the problem as
+    one line (an option train has not, one of the cell's own: env, method, seed, or
+    one of sweep's own: `_OWN`).
+
+    Trap: train reads --train-args after the sweep's options, so a duplicate there won
+    silently (`--epochs 3 --train-args '--epochs 5'` trained 5), and a --threads there
+    left Ray reserving the sweep's --threads CPUs a cell."""
     from .cli import UsageError, build_parser, given_options
 
     if any(a in ("-h", "--help") for a in extra):
@@ -211,10 +234,43 @@ def _check_train_args(extra: list[str], args) -> str | None:
             f"--train-args may not hold --{own[0]}; the sweep sets it per cell "
             "(--envs, --methods, --seeds or the plan)"
         )
-    try:  # train reads --train-args after the sweep's options: theirs win
-        Config(env=ENV_IDS[0], **{**passed_options(args), **given}).resolve()
-    except ConfigError as e:
-        return f"--train-args: {e}"
+    dup = [k for k in _OWN if k in given]
+    if dup:
+        return (
+            f"--train-args may not hold {_OWN[dup[0]]}: it is sweep's own "
+            f"{_OWN[dup[0]]}; allowed: sweep {_OWN[dup[0]]} alone"
+        )
+    return given
+
+
+def check_cells(cells: list[Cell], args) -> str | None:
+    """The sweep's own options, then --train-args, checked by Config on every
+    (env, method, plan config) of the grid, before any cell starts (else every cell
+    would fail in its train.log): the first problem, as one line naming the pair.
+    Call after `check_args`.
+
+    Trap: checked on ENV_IDS[0] (FetchReach-v4) instead, a --train-args option valid
+    on every task of the grid was refused (--sicm-angles sincos on Push), and one
+    refused by a task of the grid but not Reach's would fail in every such cell."""
+    given = _train_options(shlex.split(args.train_args or ""))
+    if isinstance(given, str):
+        return given
+    seen = set()
+    for c in cells:
+        key = (c.env, c.method, repr(sorted(c.options.items())))
+        if key in seen:
+            continue
+        seen.add(key)
+        for prefix, extra in (("", {}), ("--train-args: ", given)):
+            try:
+                Config(
+                    **{**cell_options(c, args), **extra},
+                    env=c.env,
+                    method=c.method,
+                    seed=c.seed,
+                ).resolve()
+            except ConfigError as e:
+                return f"{prefix}{e}; on the pair ({c.env}, {c.method})"
     return None
 
 
@@ -453,6 +509,17 @@ def _say(msg: str) -> None:
     print(f"sweep: {msg}", flush=True)
 
 
+def read_checked(args) -> list[Cell]:
+    """The cells of --plan, checked with the sweep's options (`check_cells`); a
+    PlanError if not, so a plan read again mid-sweep with a group that --train-args
+    does not fit leaves the queue as it was."""
+    cells = read_plan(args.plan)
+    problem = check_cells(cells, args)
+    if problem:
+        raise PlanError(problem)
+    return cells
+
+
 def run(args) -> int:
     """Plan the grid and run it on Ray; 0 if every cell finished, 1 if one failed, 2 on
     bad input, 130 on Ctrl-C (every running cell keeps its last checkpoint)."""
@@ -470,8 +537,11 @@ def run(args) -> int:
             if args.plan is not None
             else plan(args.envs, args.methods, args.seeds, args.results)
         )
+        problem = check_cells(cells, args)
     except PlanError as e:
         return bad(e)
+    if problem:
+        return bad(problem)
     problem = check_folders(cells)
     if problem:
         return bad(problem)
@@ -526,7 +596,7 @@ def run(args) -> int:
     from .signals import interrupt_on_signals
 
     interrupt_on_signals()  # `kill PID` of a background sweep cancels its cells cleanly
-    replan = (lambda: read_plan(args.plan)) if args.plan is not None else None
+    replan = (lambda: read_checked(args)) if args.plan is not None else None
     try:
         copied = _copy_all(cells, args)
         skipped = len(cells) - len(todo) - copied["done"] - copied["failed"]

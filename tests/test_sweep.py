@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from acder_lite import sweep as S
-from acder_lite.plan import plan, read_plan
+from acder_lite.plan import PlanError, plan, read_plan
 from conftest import stop_tree
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -64,15 +64,42 @@ def test_plan(grid):
     assert "nothing to resume" in cells[3].note
 
 
-def test_plan_ebp_needs_an_object(tmp_path):
-    """Config's own check decides (one place):
-    EBP on a task without an object is skipped."""
-    cells = plan(["FetchReach-v4", "FetchPush-v4"], ["her-ebp"], [0], tmp_path)
-    assert [(c.env, c.action) for c in cells] == [
-        ("FetchReach-v4", "skip"),
-        ("FetchPush-v4", "run"),
+def test_plan_refuses_a_cell_config_refuses(tmp_path):
+    """Config's own check decides (one place): EBP on a task without an object is an
+    error, not a skipped cell (it was, with exit 0)."""
+    with pytest.raises(PlanError, match="needs a task with an object") as e:
+        plan(["FetchReach-v4", "FetchPush-v4"], ["her-ebp"], [0], tmp_path)
+    assert "(FetchReach-v4, her-ebp, seed 0)" in str(e.value)
+    assert [c.action for c in plan(["FetchPush-v4"], ["her-ebp"], [0], tmp_path)] == [
+        "run"
     ]
-    assert "needs a task with an object" in cells[0].note
+
+
+@pytest.mark.parametrize(
+    "argv, msg",
+    [
+        (
+            "--envs FetchReach-v4 --methods her-ebp --seeds 0",
+            "the pair (FetchReach-v4, her-ebp): method='her-ebp' needs a task with",
+        ),
+        (
+            "--envs FetchReach-v4 FetchPush-v4 --methods her her-ebp --seeds 0",
+            "the pair (FetchReach-v4, her-ebp)",
+        ),
+        (
+            "--envs FetchReach-v4 --methods her --seeds 18446744073709551616",
+            "seeds must be integers < 2**64",
+        ),
+    ],
+)
+def test_grid_of_a_cell_config_refuses(tmp_path, capsys, argv, msg):
+    """A grid cell Config refuses is exit 2 in one line, before anything is planned
+    (it was "nothing to run: 1 skipped", exit 0)."""
+    args = parse([*argv.split(), "--results", str(tmp_path), "--dry-run"])
+    assert S.run(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and msg in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_dry_run(grid, capsys):
@@ -82,7 +109,7 @@ def test_dry_run(grid, capsys):
             "FetchReach-v4",
             "--methods",
             "her",
-            "her-ebp",
+            "her-per",
             "--seeds",
             "0",
             "1",
@@ -101,8 +128,8 @@ def test_dry_run(grid, capsys):
         ["skip", "FetchReach-v4/her/seed0"],
         ["resume", "FetchReach-v4/her/seed1"],
         ["run", "FetchReach-v4/her/seed2"],
-    ] + [["skip", f"FetchReach-v4/her-ebp/seed{k}"] for k in range(3)]
-    assert "1 to run, 1 to resume, 0 to copy, 4 to skip" in out[-2]
+    ] + [["run", f"FetchReach-v4/her-per/seed{k}"] for k in range(3)]
+    assert "4 to run, 1 to resume, 0 to copy, 1 to skip" in out[-2]
     assert out[-1].startswith("sweep: time left: ")  # acder_lite.grid_time
     assert not (
         grid / "FetchReach-v4" / "her" / "seed2"
@@ -423,7 +450,7 @@ config = { sicm_input = "raw" }
 
 [[group]]
 envs = ["FetchReach-v4", "FetchPush-v4"]
-methods = ["her", "her-ebp"]
+methods = ["her", "her-per"]
 seeds = [0]
 
 [[group]]
@@ -450,9 +477,9 @@ def test_read_plan(tmp_path):
         ("FetchPush-v4/sicm-raw/seed0", "run"),
         ("FetchReach-v4/her/seed0", "resume"),
         ("FetchPush-v4/sicm-raw/seed1", "run"),
-        ("FetchReach-v4/her-ebp/seed0", "skip"),  # EBP needs an object
+        ("FetchReach-v4/her-per/seed0", "run"),
         ("FetchPush-v4/her/seed0", "run"),
-        ("FetchPush-v4/her-ebp/seed0", "run"),
+        ("FetchPush-v4/her-per/seed0", "run"),
         ("FetchReach-v4/acder/seed0", "skip"),  # on hold
     ]
     assert cells[0].out == tmp_path / "exp" / "FetchPush-v4" / "sicm-raw" / "seed0"
@@ -498,7 +525,31 @@ def test_read_plan(tmp_path):
             "planned twice",
         ),
         ("[[group]\n", "not valid TOML"),
-        ("x = 1\n", "no [[group]] tables"),
+        ("[defaults]\n", "no [[group]] tables"),
+        # a top-level typo: its tables were dropped silently, exit 0
+        ("x = 1\n", "unknown top-level key 'x'; allowed: [defaults] and [[group]]"),
+        (
+            "[default]\nconfig = { epochs = 3 }\n[[group]]\nenvs = ['FetchReach-v4']\n"
+            "methods = ['her']\nseeds = [0]\n",
+            "unknown top-level key 'default'",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
+            "[[groups]]\nenvs = ['FetchPush-v4']\nmethods = ['her']\nseeds = [0]\n",
+            "unknown top-level key 'groups'",
+        ),
+        # every (env, method) pair of a group, not its first only: the others were
+        # skipped cells, exit 0
+        (
+            "[[group]]\nenvs = ['FetchPush-v4', 'FetchReach-v4']\n"
+            "methods = ['her-ebp']\nseeds = [0]\n",
+            "group 1: the pair (FetchReach-v4, her-ebp): method='her-ebp' needs",
+        ),
+        (
+            "[[group]]\nenvs = ['FetchPush-v4', 'FetchReach-v4']\n"
+            "methods = ['acder']\nseeds = [0]\nconfig = { sicm_angles = 'sincos' }\n",
+            "group 1: config on the pair (FetchReach-v4, acder): sicm_angles='sincos'",
+        ),
         # tracebacks before (TypeError, UnicodeDecodeError), or a cell that trained
         # another env, seed or folder than the plan's
         ("group = [1, 2]\n", "group 1 is 1, not a table"),
@@ -558,6 +609,76 @@ def test_bad_plan(tmp_path, capsys, text, msg):
     ]  # nothing written
 
 
+def test_table_plan_with_a_top_level_typo(tmp_path):
+    """`table --plan` reads the plan as the sweep does: a [default] table (for
+    [defaults]) is an error naming it, not seed counts without it."""
+    from acder_lite import table
+    from acder_lite.config import ConfigError
+
+    path = tmp_path / "plan.toml"
+    path.write_text(
+        "[default]\nconfig = { epochs = 3 }\n[[group]]\nenvs = ['FetchReach-v4']\n"
+        "methods = ['her']\nseeds = [0]\n"
+    )
+    with pytest.raises(ConfigError, match="unknown top-level key 'default'"):
+        table.read_planned(argparse.Namespace(plan=str(path)), tmp_path)
+
+
+SINCOS = ["--train-args=--sicm-angles sincos", "--dry-run"]
+
+
+def test_train_args_checked_on_the_grids_own_pairs(tmp_path, capsys):
+    """--train-args are checked on the grid's (env, method) pairs, not on
+    FetchReach-v4: S-ICM on (sin, cos) of the block's angles is a Push option."""
+    push = ["--envs", "FetchPush-v4", "--methods", "acder", "--seeds", "0"]
+    assert S.run(parse([*push, "--results", str(tmp_path / "r"), *SINCOS])) == 0
+    assert "1 to run" in capsys.readouterr().out
+    both = [*push[:2], "FetchReach-v4", *push[2:]]
+    assert S.run(parse([*both, "--results", str(tmp_path / "r"), *SINCOS])) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--train-args: sicm_angles='sincos'" in err
+    assert err.rstrip().endswith("on the pair (FetchReach-v4, acder)")
+    # a plan: its cells' pairs and configs, also when read again mid-sweep
+    path = tmp_path / "plan.toml"
+    group = "[[group]]\nenvs = ['{}']\nmethods = ['acder']\nseeds = [0]\n"
+    path.write_text(group.format("FetchPush-v4"))
+    assert S.run(parse(["--plan", str(path), *SINCOS])) == 0
+    capsys.readouterr()
+    path.write_text(group.format("FetchPush-v4") + group.format("FetchReach-v4"))
+    assert S.run(parse(["--plan", str(path), *SINCOS])) == 2
+    assert "on the pair (FetchReach-v4, acder)" in capsys.readouterr().err
+    args = parse(["--plan", str(path), *SINCOS])
+    assert S.check_args(args) is None
+    with pytest.raises(PlanError, match="sicm_angles"):
+        S.read_checked(args)
+    assert not (tmp_path / "r").exists() and not (tmp_path / "FetchPush-v4").exists()
+
+
+@pytest.mark.parametrize(
+    "argv, msg",
+    [
+        (
+            ["--epochs", "3", "--train-args=--epochs 5"],
+            "--train-args may not hold --epochs: it is sweep's own --epochs",
+        ),
+        (["--train-args=--epochs 5"], "may not hold --epochs"),
+        (
+            ["--threads", "1", "--train-args=--cycles 2 --threads 2"],
+            "--train-args may not hold --threads: it is sweep's own --threads",
+        ),
+        (["--train-args=--stop-patience 0"], "may not hold --stop-patience"),
+    ],
+)
+def test_train_args_may_not_repeat_sweeps_own_options(tmp_path, capsys, argv, msg):
+    """train reads --train-args last, so a duplicate there won silently, and a
+    --threads there was not what Ray reserved per cell: refused, naming both."""
+    args = parse([*REACH_HER_0, str(tmp_path), *argv, "--dry-run"])
+    assert S.run(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and msg in err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_plan_that_is_not_text(tmp_path, capsys):
     path = tmp_path / "plan.toml"
     path.write_bytes(b"\xff\xfe[[group]]\x00")
@@ -610,10 +731,14 @@ def test_negative_seed(tmp_path, capsys):
     assert "seeds" in capsys.readouterr().err
 
 
-TINY = (
-    "--workers 1 --cycles 2 --updates-per-cycle 2 --test-episodes 1 --batch-size 16 "
-    "--hidden 16 --buffer-size 5000 --stop-patience 0"
+TINY_OWN = ["--workers", "1", "--stop-patience", "0"]
+"""The part of `TINY` that sweep has options of its own for (not --train-args)."""
+TINY_TRAIN = (
+    "--cycles 2 --updates-per-cycle 2 --test-episodes 1 --batch-size 16 "
+    "--hidden 16 --buffer-size 5000"
 )
+"""The rest of `TINY`: the sweep's --train-args."""
+TINY = " ".join([*TINY_OWN, TINY_TRAIN])
 """A FetchReach run of a few seconds an epoch (for the real Ray sweeps below)."""
 
 
@@ -635,7 +760,8 @@ def _sweep_cmd(results, seeds, epochs):
         "2",
         "--epochs",
         str(epochs),
-        f"--train-args={TINY}",
+        *TINY_OWN,
+        f"--train-args={TINY_TRAIN}",
     ]
 
 
