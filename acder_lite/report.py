@@ -101,6 +101,10 @@ CARRY_EVALUATIONS = 5
 """A seed stopped by the stop rule carries the mean of this many last
 evaluations forward."""
 
+TAIL_EVALUATIONS = 5
+"""How many of a seed's last evaluations `column_tail` averages by default: where a
+diagnostic (the mean r_i, the critic's Q) ends, not where it started."""
+
 SUCCESS_TOL = 1e-9
 """Slack when comparing a success rate with a threshold
 (a mean of ones may be 0.9999999999)."""
@@ -782,7 +786,11 @@ def learning_curves(runs: list[dict]) -> dict[tuple[str, str], MeanCurve]:
 
 
 def column_tail(
-    runs: list[dict], env: str, name: str, column: str, last: int | None = 5
+    runs: list[dict],
+    env: str,
+    name: str,
+    column: str,
+    last: int | None = TAIL_EVALUATIONS,
 ) -> float | None:
     """A progress.csv column averaged over each seed's `last` evaluations (all of them
     with None), then over the seeds of (env, name); None where no seed has the column

@@ -25,6 +25,7 @@ from .config import TASK_PRESETS, ConfigError
 from .report import (
     ABLATIONS,
     PAPER_EPISODES_PER_EPOCH,
+    TAIL_EVALUATIONS,
     CellStat,
     RatioStat,
     choose,
@@ -432,7 +433,7 @@ def grid_state(cells: list[CellStat]) -> str:
 
 
 def bonus_sentence(
-    runs: list[dict], envs, names=("her-icm", "acder"), last: int = 5
+    runs: list[dict], envs, names=("her-icm", "acder"), last: int = TAIL_EVALUATIONS
 ) -> str:
     """How large the curiosity bonus is by the end, per task: the mean r_i of the
     minibatches (progress.csv's r_int_mean) over each seed's `last` evaluations,
