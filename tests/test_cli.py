@@ -246,8 +246,18 @@ def test_ctrl_c_in_the_first_epoch_leaves_a_run_to_start_again(cli, tmp_path):
     out = tmp_path / "run"
     cmd = [*"train --env FetchReach-v4 --epochs 1".split(), *TINY, "--out", str(out)]
     long = [*cmd, "--cycles", "500", "--eval-every-cycles", "1"]  # the later --cycles
+    code, err = _ctrl_c_once_written(long, out / "progress.csv")
+    assert code == 130 and "before the first checkpoint" in err, err
+    assert not (out / "checkpoint.pt").exists() and os.listdir(out) == []
+    one_line_error(cli("train", "--resume", str(out)), "no checkpoint.pt", "--out")
+    assert cli(*cmd).returncode == 0 and (out / "done.json").exists()
+
+
+def _ctrl_c_once_written(args, path, settle=0.0):
+    """Start `python -m acder_lite ARGS`, send SIGINT once `path` exists (after
+    `settle` seconds more), and return its exit code and stderr."""
     p = subprocess.Popen(
-        [sys.executable, "-m", "acder_lite", *long],
+        [sys.executable, "-m", "acder_lite", *args],
         cwd=ROOT,
         env=dict(os.environ, PYTHONPATH=ROOT),
         stdout=subprocess.PIPE,
@@ -255,35 +265,20 @@ def test_ctrl_c_in_the_first_epoch_leaves_a_run_to_start_again(cli, tmp_path):
         text=True,
     )
     deadline = time.time() + 120
-    while not (out / "progress.csv").exists() and time.time() < deadline:
+    while not path.exists() and time.time() < deadline:
         time.sleep(0.1)
+    time.sleep(settle)
     p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=60)
-    assert p.returncode == 130 and "before the first checkpoint" in err, err
-    assert not (out / "checkpoint.pt").exists() and os.listdir(out) == []
-    one_line_error(cli("train", "--resume", str(out)), "no checkpoint.pt", "--out")
-    assert cli(*cmd).returncode == 0 and (out / "done.json").exists()
+    return p.returncode, err
 
 
 def test_ctrl_c_leaves_a_checkpoint_to_resume(tmp_path):
     out = tmp_path / "run"
     env = dict(os.environ, PYTHONPATH=ROOT)
-    p = subprocess.Popen(
-        [sys.executable, *"-m acder_lite train --env FetchReach-v4 --epochs 50".split()]
-        + [*TINY, "--out", str(out)],
-        cwd=ROOT,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    deadline = time.time() + 120
-    while not (out / "checkpoint.pt").exists() and time.time() < deadline:
-        time.sleep(0.2)
-    time.sleep(0.5)
-    p.send_signal(signal.SIGINT)
-    _, err = p.communicate(timeout=60)
-    assert p.returncode == 130, err
+    args = [*"train --env FetchReach-v4 --epochs 50".split(), *TINY, "--out", str(out)]
+    code, err = _ctrl_c_once_written(args, out / "checkpoint.pt", settle=0.5)
+    assert code == 130, err
     assert "--resume" in err and "Traceback" not in err
     from acder_lite.io import load_torch
 
