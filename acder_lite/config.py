@@ -301,6 +301,13 @@ class Config:
     restart_goal: str = "resample"
     """Goal of an episode restarted from a stored state:
     'resample' (fresh) or 'episode' (stored)."""
+    goal_factor_rows: str = "relabelled"
+    """Which minibatch rows get the goal-oriented factor lambda of Eq. 5-6:
+    'relabelled' (the rows HER gave a hindsight goal g^h; the others keep lambda = 1)
+    or 'all' (every row, its own goal or a relabelled one). The paper applies it "for
+    transitions after HER modification" and writes Eq. 5 with g^h, which reads either
+    way (departure 12). Without the goal factor (`acder-no-goal-factor`) it has no
+    effect."""
     reward_bonus: float = 0.0
     """A constant added to every minibatch reward, beside r_i where the method has one:
     r = lambda * r_her + r_i + reward_bonus. Not the paper's: a control for curiosity
@@ -564,6 +571,8 @@ class Config:
             bad("reward_bonus", "a number in [-1, 1]")
         if self.restart_goal not in ("resample", "episode"):
             bad("restart_goal", "'resample' or 'episode'")
+        if self.goal_factor_rows not in ("relabelled", "all"):
+            bad("goal_factor_rows", "'relabelled' or 'all'")
         if not isinstance(self.compile_update, bool):
             bad("compile_update", "True or False (the flag --compile-update)")
         if self.update_dtype not in UPDATE_DTYPES:

@@ -87,7 +87,8 @@ def shaped_reward(
 
     lambda is Eq. 6 on the rows HER relabelled (`relabelled`, the goal is g^h) and 1 on
     the others (their goal is the episode's own: Eq. 5 is written for hindsight goals),
-    or 1 everywhere with `goal_factor` off. `r_int` (Eq. 4) is added where given. The
+    or 1 everywhere with `goal_factor` off; with `Config.goal_factor_rows="all"` the
+    trainer passes every row as `relabelled`. `r_int` (Eq. 4) is added where given. The
     trainer, chapter 5 and the tests all call this one function.
     """
     r_her = np.asarray(r_her, np.float32)

@@ -328,9 +328,12 @@ class Trainer:
         # departure 10); the simplified observation keeps it first
         # (observations.simplified_indices checks it)
         goal = goal_factor_target(batch["g"], batch["ag"])
+        rows = batch["her"]  # Config.goal_factor_rows (departure 12)
+        if self.cfg.goal_factor_rows == "all":
+            rows = np.ones_like(rows)
         r, lam = shaped_reward(
             batch["r"],
-            batch["her"],
+            rows,
             batch["o"][:, :3],
             goal,
             batch["u"],

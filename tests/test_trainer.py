@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from acder_lite.config import METHODS
-from acder_lite.rewards import shaped_reward
+from acder_lite.rewards import goal_oriented_factor, shaped_reward
 from acder_lite.trainer import Trainer, target_clip
 
 from conftest import rows_of, tiny_config
@@ -257,6 +257,25 @@ def test_no_curiosity_keeps_r_int_out_of_the_reward():
     assert any(
         not bool((a == b).all()) for a, b in zip(before, tr.curiosity.parameters())
     )
+
+
+@pytest.mark.parametrize("rows", ["relabelled", "all"])
+def test_goal_factor_rows_picks_the_rows_lambda_applies_to(rows):
+    """Config.goal_factor_rows (departure 12): Eq. 6 on the relabelled rows only, the
+    others at lambda = 1; or on every row."""
+    cfg = tiny_config(method="acder-no-curiosity", epochs=1, cycles=2)
+    cfg.goal_factor_rows = rows
+    tr = Trainer(cfg)
+    tr.train(False)
+    batch = tr.sample_batch()
+    assert batch["her"].any() and not batch["her"].all()
+    r = tr.rewards(batch, tr.batch_tensors(batch)).numpy()
+    lam = goal_oriented_factor(batch["o"][:, :3], batch["g"], batch["u"])
+    if rows == "relabelled":
+        lam[~batch["her"]] = 1.0
+    np.testing.assert_allclose(r, lam * batch["r"], rtol=1e-6)
+    own = ~batch["her"] & (batch["r"] < 0)  # rows where the factor can show
+    assert (lam[own] > 1).any() == (rows == "all")
 
 
 @pytest.mark.parametrize(
