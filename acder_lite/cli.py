@@ -196,9 +196,8 @@ def cmd_train(args) -> int:
         out = args.out
         try:
             trainer = Trainer(cfg, out, command=_command_line(args.argv))
-        except (
-            BaseException
-        ):  # e.g. out of memory for the buffer: leave no empty folder
+        except BaseException:
+            # e.g. out of memory for the buffer, or Ctrl-C: leave no empty folder
             if made and not os.listdir(out):
                 os.rmdir(out)
             raise
