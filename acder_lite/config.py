@@ -296,8 +296,24 @@ class Config:
     ICM see the observation unchanged."""
     sicm_lr: float = 1e-3
     """Adam learning rate of the forward model (S-ICM or ICM)."""
+    intrinsic_timing: str = "before"
+    """Which forward model gives a minibatch its r_i (Eq. 4): the one from 'before' its
+    own step on that minibatch (Eq. 7-8; the step's forward pass serves both) or the
+    one from 'after' it (one more forward pass). The paper trains the curiosity module
+    on the policy's minibatch and does not say which (departure 8). S-ICM and ICM."""
+    alpha_base: float = 10 * math.e
+    """The base written `10e` in Eq. 9, alpha = alpha0 - 0.5 * alpha_base^(success - 1):
+    read as 10 times Euler's number, 27.18 (departure 14). A finite number > 1; the
+    larger, the longer alpha stays near alpha0 as success grows (alpha is
+    alpha0 - 0.5 / alpha_base at success 0 and alpha0 - 0.5 at success 1, whatever
+    the base)."""
     pool_size: int = 50
     """How many of the most recent candidate start states are kept."""
+    candidate_success: str = "final"
+    """Which episodes may give a start-state candidate (section IV-B: the transitions of
+    episodes "that have successfully reached the goal"): 'final', success at the
+    episode's last step (how a test episode is scored), or 'any', success at any of
+    its steps (departure 16)."""
     restart_goal: str = "resample"
     """Goal of an episode restarted from a stored state:
     'resample' (fresh) or 'episode' (stored)."""
@@ -573,6 +589,12 @@ class Config:
             bad("restart_goal", "'resample' or 'episode'")
         if self.goal_factor_rows not in ("relabelled", "all"):
             bad("goal_factor_rows", "'relabelled' or 'all'")
+        if self.candidate_success not in ("final", "any"):
+            bad("candidate_success", "'final' or 'any'")
+        if self.intrinsic_timing not in ("before", "after"):
+            bad("intrinsic_timing", "'before' or 'after'")
+        if not 1 < self.alpha_base < math.inf:
+            bad("alpha_base", "a finite number > 1 (Eq. 9's base, read as 10e)")
         if not isinstance(self.compile_update, bool):
             bad("compile_update", "True or False (the flag --compile-update)")
         if self.update_dtype not in UPDATE_DTYPES:

@@ -2,7 +2,8 @@
 (Pathak et al. 2017, a baseline).
 
 Both are trained on the same minibatch and in the same step as the policy (Eq. 7).
-`step` returns the prediction and its target from before the update; the intrinsic
+`step` returns the prediction and its target from before the update (or, with
+`after=True`, from after it: `Config.intrinsic_timing`, departure 8); the intrinsic
 reward is computed from them by `rewards.intrinsic_reward` (Eq. 4), the one function the
 book shows.
 """
@@ -46,15 +47,21 @@ class SICM(nn.Module):
         pred = self(s, a)
         return 0.5 * (pred - s2).pow(2).sum(-1), pred
 
-    def step(self, s, a, s2) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def step(
+        self, s, a, s2, after: bool = False
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """One Adam step on L_F (Eq. 8). Returns (prediction F(s, a), its target s',
-        loss), all detached and from before the step: Eq. 4 is taken of them by
-        `rewards.intrinsic_reward`."""
+        loss), all detached and from before the step, or with `after` the prediction of
+        the stepped model (one more forward pass): Eq. 4 is taken of them by
+        `rewards.intrinsic_reward`. The loss is always the one the step minimised."""
         err, pred = self.errors(s, a, s2)
         loss = err.mean()
         self.opt.zero_grad(set_to_none=True)
         loss.backward()
         self.opt.step()
+        if after:
+            with torch.no_grad():
+                pred = self(s, a)
         return pred.detach(), s2, loss.detach()
 
 
@@ -105,13 +112,19 @@ class ICM(nn.Module):
         err = 0.5 * (pred - target).pow(2).sum(-1)
         return err, inv, err.mean(), pred, target
 
-    def step(self, s, a, s2) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def step(
+        self, s, a, s2, after: bool = False
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """One Adam step on the ICM loss. Returns (predicted phi(s'), phi(s'), loss),
-        detached and from before the step; the reward is Eq. 4 of them, as S-ICM's
+        detached and from before the step, or with `after` both from the stepped
+        networks (the features move too); the reward is Eq. 4 of them, as S-ICM's
         (`rewards.intrinsic_reward`)."""
         err, inv, fwd, pred, target = self.losses(s, a, s2)
         loss = (1 - self.beta) * inv + self.beta * fwd
         self.opt.zero_grad(set_to_none=True)
         loss.backward()
         self.opt.step()
+        if after:
+            with torch.no_grad():
+                pred, target = self.losses(s, a, s2)[3:]
         return pred.detach(), target, loss.detach()

@@ -455,6 +455,11 @@ def diagnose(
     from .rollout import Policy
     from .trainer import Trainer
 
+    if not os.path.isdir(run_dir):
+        raise CheckpointError(
+            f"run folder {run_dir!r} does not exist; allowed: a folder written by "
+            "train (its checkpoint.pt, or policy.pt with --episodes)"
+        )
     if episodes > 0:
         path = os.path.join(run_dir, "policy.pt")
         # runs nothing from the file; checks keys and shapes

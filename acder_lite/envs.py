@@ -214,6 +214,12 @@ def step(env, action: np.ndarray) -> tuple[dict, bool]:
     return obs, bool(env._is_success(obs["achieved_goal"], env.goal))
 
 
+def successes(env, achieved_goal: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """The env's own success rule (the 5 cm rule; both blocks on the multi-step task)
+    over any leading axes of goals, as booleans."""
+    return np.asarray(env._is_success(achieved_goal, goal)) > 0
+
+
 def replay_difference(
     env_id: str = "FetchPickAndPlace-v4",
     spec: int = STATE_SPEC,

@@ -288,7 +288,7 @@ def load_torch(path: str) -> dict:
     if os.path.isdir(path):
         raise CheckpointError(f"checkpoint {path!r} is a folder; {ALLOWED}")
     if not os.path.isfile(path):
-        raise CheckpointError(f"checkpoint {path!r} does not exist")
+        raise CheckpointError(f"checkpoint {path!r} does not exist; {ALLOWED}")
     with open(path, "rb") as f:
         head = f.read(4)
     if (

@@ -87,7 +87,9 @@ def read_progress(path: str | Path) -> list[dict]:
 
     Raises RunError when it is missing, has no `episodes` or `test_success` column, or a
     row with more fields than the header or whose `episodes`/`test_success`/`epoch` is
-    not a number in its `COLUMN_RANGES` (nan and inf are refused)."""
+    not a number in its `COLUMN_RANGES` (nan and inf are refused), or whose `episodes`
+    is not above the row before's (each evaluation follows more training; the
+    crossings interpolate between rows)."""
     path = Path(path)
     if not path.exists():
         raise RunError("no progress.csv yet (no evaluation written)")
@@ -116,6 +118,11 @@ def read_progress(path: str | Path) -> list[dict]:
                             f"progress.csv line {i}: {c} {raw[c]!r} is out of range; "
                             f"allowed: {allowed}"
                         )
+                if rows and not row["episodes"] > rows[-1]["episodes"]:
+                    raise RunError(
+                        f"progress.csv line {i}: episodes {raw['episodes']!r} is not "
+                        f"above line {i - 1}'s; allowed: a count that grows by row"
+                    )
                 rows.append(row)
     except (OSError, UnicodeDecodeError, csv.Error) as e:
         raise RunError(f"progress.csv cannot be read ({type(e).__name__})") from None

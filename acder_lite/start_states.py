@@ -15,15 +15,16 @@ from collections import deque
 import numpy as np
 
 
-def novel_start_ratio(success_rate: float, alpha0: float) -> float:
+def novel_start_ratio(
+    success_rate: float, alpha0: float, base: float = 10 * math.e
+) -> float:
     """Eq. 9: alpha = alpha0 - 0.5 * (10e)^(success_rate - 1), clipped to [0, 1].
 
-    `10e` is read as 10 times Euler's number (book/departures.md, departure 14). With
-    alpha0 = 0.8: 0.782 at success 0, 0.704 at 0.5, 0.3 at 1.
+    `10e` is read as 10 times Euler's number, the default `base`
+    (`Config.alpha_base`, book/departures.md, departure 14). With alpha0 = 0.8: 0.782
+    at success 0, 0.704 at 0.5, 0.3 at 1.
     """
-    return float(
-        min(1.0, max(0.0, alpha0 - 0.5 * (10 * math.e) ** (success_rate - 1.0)))
-    )
+    return float(min(1.0, max(0.0, alpha0 - 0.5 * base ** (success_rate - 1.0))))
 
 
 def select_candidate(r_int: np.ndarray, episode_success: np.ndarray) -> int | None:
@@ -47,17 +48,30 @@ class StartStateSelector:
     """A pool of the most recent candidates;
     `draw` picks the start of each new episode."""
 
-    def __init__(self, pool_size: int, alpha0: float):
+    def __init__(self, pool_size: int, alpha0: float, base: float = 10 * math.e):
         self.pool: deque = deque(maxlen=pool_size)
-        self.alpha0 = alpha0
-        self.alpha = novel_start_ratio(0.0, alpha0)
+        self.alpha0, self.base = alpha0, base
+        self.alpha = novel_start_ratio(0.0, alpha0, base)
 
     def set_success_rate(self, success_rate: float) -> None:
-        self.alpha = novel_start_ratio(success_rate, self.alpha0)
+        self.alpha = novel_start_ratio(success_rate, self.alpha0, self.base)
 
-    def offer(self, batch: dict, r_int: np.ndarray, buffer) -> int | None:
-        """Add the minibatch's best candidate (if any) to the pool; returns its row."""
-        row = select_candidate(r_int, buffer.success[batch["ep"]])
+    def offer(
+        self,
+        batch: dict,
+        r_int: np.ndarray,
+        buffer,
+        episode_success: np.ndarray | None = None,
+    ) -> int | None:
+        """Add the minibatch's best candidate (if any) to the pool; returns its row.
+
+        `episode_success`: per row, whether its episode counts as a success; by default
+        success at the episode's last step, as the buffer keeps it
+        (`Config.candidate_success`, departure 16).
+        """
+        if episode_success is None:
+            episode_success = buffer.success[batch["ep"]]
+        row = select_candidate(r_int, episode_success)
         if row is not None:
             e, t = int(batch["ep"][row]), int(batch["t"][row])
             self.pool.append(

@@ -144,7 +144,7 @@ class Trainer:
                 dev,
             )
         self.selector = (
-            StartStateSelector(cfg.pool_size, cfg.alpha0)
+            StartStateSelector(cfg.pool_size, cfg.alpha0, cfg.alpha_base)
             if sw["start_states"]
             else None
         )
@@ -310,7 +310,9 @@ class Trainer:
         r_int = None
         if self.curiosity is not None:
             s, s2 = self.curiosity_inputs(batch, tb)
-            pred, target, loss = self.curiosity.step(s, tb["u"], s2)
+            pred, target, loss = self.curiosity.step(
+                s, tb["u"], s2, after=self.cfg.intrinsic_timing == "after"
+            )
             # the update's one trip to the CPU (a no-op there): Eq. 4 and 6 are numpy by
             # design (rewards.py) and the start-state pool keeps numpy rows
             r_int = intrinsic_reward(
@@ -319,7 +321,9 @@ class Trainer:
             self.diag["r_int"] += float(r_int.mean())
             self.diag["cur_loss"] += float(loss)
             if self.selector is not None:
-                self.selector.offer(batch, r_int, self.buffer)
+                self.selector.offer(
+                    batch, r_int, self.buffer, self.episode_success(batch["ep"])
+                )
         bonus = r_int if sw["curiosity_reward"] else None
         if self.cfg.reward_bonus:  # the curiosity control (Config.reward_bonus)
             c = np.float32(self.cfg.reward_bonus)
@@ -343,6 +347,15 @@ class Trainer:
         if sw["goal_factor"]:
             self.diag["lam"] += float(lam.mean())
         return torch.from_numpy(r).to(self.device)
+
+    def episode_success(self, ep: np.ndarray) -> np.ndarray:
+        """Per stored episode index, whether the episode may give a start-state
+        candidate (`Config.candidate_success`, departure 16): success at its last step,
+        or at any step (read from the stored float32 goals, as HER's rewards are)."""
+        if self.cfg.candidate_success == "final":
+            return self.buffer.success[ep]
+        ag2, g = self.buffer.ag[ep, 1:], self.buffer.g[ep]
+        return E.successes(self.envs[0], ag2, g).any(axis=-1)
 
     def curiosity_inputs(
         self, batch: dict, tb: dict

@@ -65,6 +65,9 @@ def one_line_error(p, *needles):
         (["--norm-clip", "inf"], ["norm_clip=inf", "finite number >= 0"]),
         (["--clip-obs", "inf"], ["clip_obs=inf", "finite number >= 0"]),
         (["--icm-beta", "2"], ["icm_beta=2.0", "[0, 1]"]),
+        (["--alpha-base", "1"], ["alpha_base=1.0", "finite number > 1", "10e"]),
+        (["--candidate-success", "all"], ["candidate_success", "'final'", "'any'"]),
+        (["--intrinsic-timing", "now"], ["intrinsic_timing", "'before'", "'after'"]),
     ],
 )
 def test_train_bad_input(cli, tmp_path, args, needles):
@@ -149,7 +152,7 @@ def test_existing_run_is_not_overwritten_and_checkpoint_errors(cli, tmp_path):
     p = cli("eval", "--checkpoint", str(trunc))
     one_line_error(p, "truncated")
     p = cli("eval", "--checkpoint", str(tmp_path / "missing.pt"))
-    one_line_error(p, "does not exist")
+    one_line_error(p, "does not exist", "allowed: a checkpoint.pt")
     p = cli("eval", "--checkpoint", str(out / "checkpoint.pt"), "--episodes", "0")
     one_line_error(p, "--episodes", ">= 1")
     p = cli("eval", "--checkpoint", str(out / "policy.pt"), "--seed", "-1")

@@ -169,7 +169,8 @@ def test_diagnose_errors(tmp_path, cli):
     )
     for args, needle in [
         ((str(her),), "neither S-ICM nor a start-state pool"),
-        ((str(tmp_path / "nothing"),), "does not exist"),
+        ((str(tmp_path / "nothing"),), "run folder"),
+        ((str(tmp_path / "nothing"), "--episodes", "1"), "does not exist; allowed"),
         ((str(her), "--batches", "0"), "batches=0"),
     ]:
         r = cli("diagnose", *args)

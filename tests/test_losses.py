@@ -290,3 +290,26 @@ def test_icm_reward_is_on_its_features_before_the_update():
     np.testing.assert_allclose(
         r, np.clip(0.5 * ((want_pred - f2) ** 2).sum(-1).numpy(), 0, 0.8), rtol=1e-5
     )
+
+
+@pytest.mark.parametrize("cls", [SICM, ICM])
+def test_curiosity_step_after_gives_the_stepped_models_prediction(cls):
+    """Config.intrinsic_timing="after" (departure 8): the same Adam step, the same
+    loss, and the (pred, target) of the networks once stepped."""
+    s, a, s2 = torch.randn(8, 5), torch.randn(8, 2), torch.randn(8, 5)
+    out = {}
+    for after in (False, True):
+        torch.manual_seed(3)
+        m = SICM(5, 2, hidden=16) if cls is SICM else ICM(5, 2, feat_dim=4, hidden=16)
+        out[after] = m.step(s, a, s2, after=after)
+        with torch.no_grad():
+            if cls is SICM:
+                now = (m(s, a), s2)
+            else:
+                now = m.losses(s, a, s2)[3:]
+    (p0, _, l0), (p1, t1, l1) = out[False], out[True]
+    assert float(l0) == float(l1)  # the loss of the one step both took
+    torch.testing.assert_close(p1, now[0])
+    torch.testing.assert_close(t1, now[1])
+    assert not torch.allclose(p0, p1)  # the step moved the prediction
+    assert not p1.requires_grad and not t1.requires_grad

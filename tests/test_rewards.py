@@ -125,6 +125,11 @@ def test_eq9_novel_start_ratio():
     assert novel_start_ratio(1.0, 0.7) == pytest.approx(0.2)
     assert novel_start_ratio(1.0, 0.2) == 0.0  # clipped at 0
     assert novel_start_ratio(0.0, 0.8) == pytest.approx(0.78161, abs=1e-5)
+    # Config.alpha_base, another reading of 10e (departure 14): 0.8 - 0.5 / 10 at
+    # success 0, 0.8 - 0.5 / sqrt(10) at 0.5, and the same 0.3 at success 1
+    assert novel_start_ratio(0.0, 0.8, base=10.0) == pytest.approx(0.75)
+    assert novel_start_ratio(0.5, 0.8, 10.0) == pytest.approx(0.8 - 0.5 / 10**0.5)
+    assert novel_start_ratio(1.0, 0.8, 10.0) == pytest.approx(0.3)
 
 
 def test_eq4_reward_and_eq8_loss_measure_the_same_error():

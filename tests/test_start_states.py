@@ -65,3 +65,16 @@ def test_draw_follows_alpha():
     sel.alpha0 = 0.0
     sel.set_success_rate(0.0)
     assert all(sel.draw(rng) is None for _ in range(100))
+
+
+def test_offer_reads_the_episode_success_it_is_given():
+    """`offer` takes per-row episode success (Config.candidate_success); by default
+    the buffer's success at the last step."""
+    buf = _buffer()  # episodes 0, 2 and 5 succeeded at their last step
+    batch = dict(ep=np.array([1, 2, 3]), t=np.array([0, 1, 2]))
+    r = np.array([0.9, 0.1, 0.5])
+    assert StartStateSelector(3, 0.8).offer(batch, r, buf) == 1  # only episode 2
+    ok = np.array([True, True, True])  # e.g. 'any': every episode counts
+    sel = StartStateSelector(3, 0.8)
+    assert sel.offer(batch, r, buf, ok) == 0
+    np.testing.assert_array_equal(sel.pool[-1]["state"], buf.state[1, 1])

@@ -332,6 +332,8 @@ IMPOSSIBLE = {
     "episodes-negative": ("episodes", "-400", "episodes '-400' is out of range"),
     "episodes-nan": ("episodes", "NaN", "episodes 'NaN' is out of range"),
     "epoch-inf": ("epoch", "Infinity", "epoch 'Infinity' is out of range"),
+    # the crossings interpolate between rows: a count that goes back is not a curve
+    "episodes-back": ("episodes", "0", "episodes '0' is not above line 2's"),
 }
 
 

@@ -441,3 +441,22 @@ def test_sicm_angles_sincos_is_what_sicm_sees_and_trains_on():
     assert np.abs(s[:, 22:28].numpy()).max() <= 1.0  # sines (22-24), cosines (25-27)
     r = tr.rewards(batch, tb).numpy()
     assert np.isfinite(r).all() and tr.rows and np.isfinite(tr.rows[-1]["r_int_mean"])
+
+
+def test_candidate_success_reads_the_last_step_or_any_step():
+    """Config.candidate_success (departure 16): an episode whose gripper reaches the
+    goal at step 2 only is a success for 'any', not for 'final'; one that ends on it is
+    both."""
+    tr = Trainer(tiny_config(method="acder", epochs=1, cycles=1))
+    tr.train(False)
+    buf, T = tr.buffer, tr.T
+    far = buf.g[:2] + 1.0  # 1 m from the goal on each axis: no step succeeds
+    buf.ag[:2, 1:] = far
+    buf.ag[0, 3] = buf.g[0, 2]  # episode 0: on the goal after step 2 only
+    buf.ag[1, T] = buf.g[1, T - 1]  # episode 1: on the goal after its last step
+    buf.success[:2] = [False, True]  # as the rollout records them (the last step)
+    ep = np.array([0, 1, 1, 0])
+    want = {"final": [False, True, True, False], "any": [True, True, True, True]}
+    for rule in ("final", "any"):
+        tr.cfg.candidate_success = rule
+        assert tr.episode_success(ep).tolist() == want[rule]
