@@ -210,8 +210,9 @@ def ratio_text(r: RatioStat) -> str:
     else:
         return r.why
     if r.low is not None and not math.isnan(r.low):
-        hi = "∞" if math.isinf(r.high) else f"{r.high:.1f}"
-        text += f" [{r.low:.1f} – {hi}]"
+        # both ends may be inf (HER never crossing in every resample pair)
+        lo, hi = ("∞" if math.isinf(x) else f"{x:.1f}" for x in (r.low, r.high))
+        text += f" [{lo} – {hi}]"
     return text
 
 

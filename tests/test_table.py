@@ -827,3 +827,18 @@ def test_ratio_rows_give_three_readings_beside_the_papers():
         "paper",
     ]
     assert rows[2][1] == "1.5" and rows[3][1] == "5.3"
+
+
+def test_ratio_interval_beyond_the_budget_prints_infinity_at_both_ends():
+    """HER's two seeds at 0.1 for 4 epochs never cross; ACDER's cross at 1 + 0.45 / 0.5
+    = 1.9 epochs. Every resample pair has HER never crossing, so the ratio's interval
+    is [inf, inf], printed as such (not 'inf' on the left, '∞' on the right)."""
+    her, acder = cell("her", [0.1] * 4), cell("acder", [0.5, 1.0, 1.0, 1.0])
+    (r,) = RE.ratios([her, acder], tasks=(P,))
+    assert (r.ours, r.bound, r.low, r.high) == (
+        None,
+        pytest.approx(4 / 1.9),
+        math.inf,
+        math.inf,
+    )
+    assert T.ratio_text(r) == "> 2.1 (HER not within budget) [∞ – ∞]"
