@@ -842,3 +842,35 @@ def test_ratio_interval_beyond_the_budget_prints_infinity_at_both_ends():
         math.inf,
     )
     assert T.ratio_text(r) == "> 2.1 (HER not within budget) [∞ – ∞]"
+
+
+def test_ablation_sentence_names_fewer_seeds_at_a_100_percent_threshold():
+    """On Reach (100%) an ablation of 2 seeds against ACDER's 3 is named; on Push (95%)
+    the sentence does not add it."""
+    R = "FetchReach-v4"
+
+    def seeds(name, env, k):
+        rows = [
+            dict(epoch=float(i), episodes=400.0 * i, test_success=v)
+            for i, v in enumerate([0.5, 1.0, 1.0, 1.0], 1)
+        ]
+        r = dict(
+            env=env,
+            name=name,
+            method=name,
+            rows=rows,
+            ended="budget",
+            budget_epochs=4.0,
+            episodes_per_epoch=400.0,
+            update_dtype="float32",
+        )
+        return RE.cell_stat(env, name, [dict(r, seed=i) for i in range(k)], n_boot=50)
+
+    for env, named in ((R, True), (P, False)):
+        acder = seeds("acder", env, 3)
+        abl = seeds("acder-no-curiosity", env, 2)
+        s = T.ablation_sentence([acder, abl], env)
+        assert (
+            "ACDER w/o curiosity (2 seeds) against full ACDER's 3;" in s
+        ) == named, s
+        assert s.endswith(".") and not s.endswith("..")
