@@ -130,9 +130,11 @@ def obs_names(env, full: bool = False) -> list[str]:
         ["object"] if n_objects == 1 else [f"object{i}" for i in range(n_objects)]
     )
     each = lambda field: [n for p in prefixes for n in xyz(f"{p}_{field}")]
-    names = xyz("grip_pos") + each("pos") + each("rel_pos") + ["finger_l", "finger_r"]
+    # the fingers in the model's joint order, right then left: `_get_obs` takes the
+    # last two of robot_get_obs's joints, r_ then l_gripper_finger_joint
+    names = xyz("grip_pos") + each("pos") + each("rel_pos") + ["finger_r", "finger_l"]
     names += each("rot") + each("velp") + each("velr")
-    names += xyz("grip_velp") + ["finger_vel_l", "finger_vel_r"]
+    names += xyz("grip_velp") + ["finger_vel_r", "finger_vel_l"]
     n = getattr(env, "full_get_obs", env._get_obs)()["observation"].size
     if (
         len(names) != n

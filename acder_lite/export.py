@@ -22,9 +22,19 @@ The robot side:
 
 Inputs may be one observation or a batch (leading axes), of any float dtype; the action
 is float32. A wrong input width raises a ValueError naming the widths it accepts. The
-file also holds `acder_lite.json` (env, method, observation set, names, clips, the
-source file, the versions): `torch.jit.load(path, _extra_files={"acder_lite.json": ""})`
-fills it in.
+file also holds `acder_lite.json` (env, method, observation set, names, units, clips,
+the frame, the source file, the versions): `torch.jit.load(path,
+_extra_files={"acder_lite.json": ""})` fills it in.
+
+**Units and frame** (`units`, `world`; `policy.obs_units`, `policy.goal_units`): every
+position is in metres in the simulator's world frame (z up), where the normalisers were
+fitted, so a robot expresses its camera's and its arm's positions in that frame;
+`world` gives the gripper's start position and the height of a block resting on the
+table to calibrate against. Finger entries are each finger's slide joint (0 closed,
+0.05 m open). Fetch's "velocities" (full state only) are displacements in one control
+step (velocity x `world["control_dt_s"]`, 0.04 s). The action: dx dy dz move the
+end-effector's target by 0.05 m per unit in that step (world frame); the gripper
+command (> 0 opens) is ignored on Reach and both Push tasks, whose gripper is blocked.
 
 TorchScript is deprecated in torch 2.13 (a DeprecationWarning on script, save and load,
 silenced here) in favour of `torch.export`; it is still what `torch.jit.load` reads with
@@ -39,13 +49,15 @@ ml-dtypes 0.7.0, onnxruntime 1.31.1, flatbuffers 25.12.19; protobuf stays at its
 actions against the policy's. An install without them (the package alone, `pip install
 -e .`) gets one line from `--onnx` saying what to install. The ONNX graph takes the
 policy's own observation entries only (one static input width), float32, with a dynamic
-batch axis.
+batch axis; the model's `metadata_props` hold the same `acder_lite.json` (onnxruntime:
+`session.get_modelmeta().custom_metadata_map`), its `accepts` saying so.
 """
 
 import argparse
 import contextlib
 import json
 import os
+import re
 import warnings
 from typing import List
 
@@ -67,6 +79,43 @@ META_FILE = "acder_lite.json"
 
 ONNX_PACKAGES = "onnx==1.23.2 onnxscript==0.7.2 onnxruntime==1.31.1"
 
+WORLD_M = "m, world frame"
+STEP = "per control step (x control_dt_s)"
+UNITS = (
+    (r"grip_pos\.[xyz]", WORLD_M + ", the gripper (arm's encoders)"),
+    (r"object\d*_pos\.[xyz]", WORLD_M + ", the block (camera)"),
+    (r"object\d*_rel_pos\.[xyz]", "m, the block's position minus the gripper's"),
+    (r"finger_[lr]", "m, the finger's slide joint (0 closed, 0.05 open)"),
+    (r"object\d*_rot\.[xyz]", "rad, the block's Euler angles (world frame)"),
+    (r"object\d*_velp\.[xyz]", f"m {STEP}, the block's motion minus the gripper's"),
+    (r"object\d*_velr\.[xyz]", f"rad {STEP}, the block's rotation"),
+    (r"grip_velp\.[xyz]", f"m {STEP}, the gripper's motion"),
+    (r"finger_vel_[lr]", f"m {STEP}, the finger's motion"),
+    (r"goal\d*\.[xyz]", WORLD_M + ", a block's target (Reach: the gripper's)"),
+)
+"""The unit (and meaning) of each observation and goal entry, by name (`envs.obs_names`,
+`envs.goal_names`); positions in metres in the world frame, Fetch's velocities as
+displacements in one control step (gymnasium-robotics multiplies them by dt)."""
+
+
+def unit_of(name: str) -> str:
+    """The unit of entry `name` (`UNITS`); RuntimeError for a name it does not know,
+    rather than a file that documents it wrongly."""
+    for pattern, unit in UNITS:
+        if re.fullmatch(pattern, name):
+            return unit
+    raise RuntimeError(f"export: no unit known for observation entry {name!r}")
+
+
+def action_units(block_gripper: bool) -> list:
+    """The unit of each action entry (dx, dy, dz, gripper): what Fetch's controller does
+    with it in one control step."""
+    move = "x 0.05 m: the end effector's target moves this much this step, world frame"
+    grip = "each finger's target moves by this (m); > 0 opens, < 0 closes"
+    if block_gripper:
+        grip = "ignored: the gripper is blocked on this task"
+    return [move, move, move, grip]
+
 
 class DeployedPolicy(nn.Module):
     """The policy as a self-contained module: forward(observation, goal) -> action.
@@ -80,6 +129,9 @@ class DeployedPolicy(nn.Module):
     obs_names: List[str]
     full_obs_names: List[str]
     goal_names: List[str]
+    obs_units: List[str]
+    full_obs_units: List[str]
+    goal_units: List[str]
 
     def __init__(
         self,
@@ -90,6 +142,7 @@ class DeployedPolicy(nn.Module):
         env: str,
         method: str,
         obs: str,
+        world: str = "{}",
     ):
         super().__init__()
         self.net = nn.Sequential(*policy.actor.net)
@@ -110,7 +163,11 @@ class DeployedPolicy(nn.Module):
         self.full_obs_names = list(full_obs_names)
         self.obs_names = [full_obs_names[int(i)] for i in index]
         self.goal_names = list(goal_names)
+        self.full_obs_units = [unit_of(n) for n in full_obs_names]
+        self.obs_units = [unit_of(n) for n in self.obs_names]
+        self.goal_units = [unit_of(n) for n in goal_names]
         self.env, self.method, self.obs = env, method, obs
+        self.world = world  # JSON (`world_of`): the frame's landmarks, the step's dt
         for p in self.parameters():
             p.requires_grad_(False)
 
@@ -145,6 +202,22 @@ class DeployedPolicy(nn.Module):
         return u.clamp(-1.0, 1.0)
 
 
+def world_of(env) -> dict:
+    """What a robot calibrates its frame and clock against, read from the task's env:
+    the control step (s), the gripper's start position (m, world frame), the height of
+    the centre of a block resting on the table (tasks with a block) and whether the
+    gripper command is ignored."""
+    world = dict(
+        frame="MuJoCo world frame of the Fetch scene, metres, z up",
+        control_dt_s=float(env.n_substeps * env.model.opt.timestep),
+        initial_gripper_pos=[float(x) for x in env.initial_gripper_xpos[:3]],
+        gripper_blocked=bool(env.block_gripper),
+    )
+    if env.has_object:
+        world["block_rest_z"] = float(env.height_offset)
+    return world
+
+
 def build(pol: dict, path: str = "policy") -> DeployedPolicy:
     """The DeployedPolicy of a policy dict, its sizes checked against its task's env
     (`observations.policy_env`: CheckpointError, one line)."""
@@ -160,6 +233,7 @@ def build(pol: dict, path: str = "policy") -> DeployedPolicy:
             pol["env"],
             pol["method"],
             obs,
+            json.dumps(world_of(env)),
         )
     finally:
         env.close()
@@ -172,18 +246,31 @@ def script(module: DeployedPolicy) -> torch.jit.ScriptModule:
         return torch.jit.script(module)
 
 
-def metadata(module: DeployedPolicy, source: str) -> dict:
+def metadata(module: DeployedPolicy, source: str, onnx: bool = False) -> dict:
+    """The file's `acder_lite.json`: what each input and output number is, in which
+    unit and frame (`UNITS`, `world_of`), and where the file came from."""
     from .runfiles import versions
 
+    world = json.loads(module.world)
+    if onnx:
+        accepts = "observation: obs_names only (float32, batch first)"
+    else:
+        accepts = "observation: obs_names or full_obs_names (leading batch axes)"
     return dict(
         env=module.env,
         method=module.method,
         obs=module.obs,
         source=source,
+        accepts=accepts,
         obs_names=module.obs_names,
+        obs_units=module.obs_units,
         full_obs_names=module.full_obs_names,
+        full_obs_units=module.full_obs_units,
         goal_names=module.goal_names,
+        goal_units=module.goal_units,
         action=["dx", "dy", "dz", "gripper"],
+        action_units=action_units(world.get("gripper_blocked", False)),
+        world=world,
         clip_obs=module.clip_obs,
         norm_clip=module.norm_clip,
         action_clip=[-1.0, 1.0],
@@ -260,19 +347,39 @@ def compare_with_package(pol: dict, out: str, source: str = "", n: int = 100, se
     """Export `pol` to `out` (`export_torchscript`), give the file in a fresh process
     (`run_standalone`) and the in-package policy the same `n` random full observations
     and goals, and compare: dict(gap = the largest absolute action difference,
-    imported = the acder_lite modules the robot side imported, meta)."""
+    clipped = the fraction of the policy's normalised inputs at the normalisers' clip,
+    imported = the acder_lite modules the robot side imported, meta).
+
+    The policy's entries are drawn around its normalisers' statistics, mean + std z
+    with z ~ N(0, 1) (a tenth of the rows z x 8, past the clip): a trained policy's
+    positions sit near (1.3, 0.75, 0.42) m with a std of centimetres, so N(0, 1) numbers
+    would put most normalised inputs at the clip and test little but the clip."""
     import numpy as np
 
     meta = export_torchscript(pol, out, source=source)
+    policy = Policy.from_state_dict(pol)
+    idx = indices(meta["full_obs_names"], meta["obs"])
     rng = np.random.default_rng(seed)
-    o = rng.normal(size=(n, len(meta["full_obs_names"]))).astype(np.float32)
-    g = rng.normal(size=(n, len(meta["goal_names"]))).astype(np.float32)
+
+    def around(norm, size):
+        z = rng.normal(size=(n, size))
+        z[: max(1, n // 10)] *= 8.0
+        return norm.mean + norm.std * z
+
+    o = rng.normal(size=(n, len(meta["full_obs_names"])))
+    o[:, idx] = around(policy.o_norm, idx.size)
+    o = o.astype(np.float32)
+    g = around(policy.g_norm, len(meta["goal_names"])).astype(np.float32)
     robot = run_standalone(out, o, g)
-    u = Policy.from_state_dict(pol)(
-        o[:, indices(meta["full_obs_names"], meta["obs"])], g
+    u = policy(o[:, idx], g)
+    z = np.concatenate(
+        [policy.o_norm.normalize(o[:, idx]), policy.g_norm.normalize(g)], 1
     )
     return dict(
-        gap=float(np.abs(robot["u"] - u).max()), imported=robot["imported"], meta=meta
+        gap=float(np.abs(robot["u"] - u).max()),
+        clipped=float(np.mean(np.abs(z) >= policy.o_norm.clip)),
+        imported=robot["imported"],
+        meta=meta,
     )
 
 
@@ -290,7 +397,8 @@ def check_onnx() -> None:
 
 def export_onnx(pol: dict, out: str, source: str = "") -> None:
     """Write an ONNX file (inputs `observation` (B, n_obs) and `goal` (B, n_goal),
-    float32; output `action`), atomically. ConfigError without onnx/onnxscript."""
+    float32; output `action`; `metadata_props` {META_FILE: the metadata}), atomically.
+    ConfigError without onnx/onnxscript."""
     check_onnx()
     import tempfile
 
@@ -311,8 +419,12 @@ def export_onnx(pol: dict, out: str, source: str = "") -> None:
                 external_data=False,
                 dynamic_shapes={"observation": {0: batch}, "goal": {0: batch}},
             )
-        with open(path, "rb") as f:
-            data = f.read()
+        import onnx
+
+        model = onnx.load(path)
+        meta = json.dumps(metadata(module, source, onnx=True), indent=2)
+        onnx.helper.set_model_props(model, {META_FILE: meta})
+        data = model.SerializeToString()
     atomic_write(out, lambda f: f.write(data))
 
 
@@ -340,7 +452,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="a policy.pt or checkpoint.pt (or a run folder)",
     )
     p.add_argument(
-        "--out", required=True, metavar="FILE", help="the TorchScript file to write"
+        "--out",
+        required=True,
+        metavar="FILE",
+        help="the TorchScript file to write (never replaced); its acder_lite.json "
+        "names every input entry with its unit and frame",
     )
     p.add_argument(
         "--onnx",

@@ -517,7 +517,12 @@ def to_text(result: dict) -> str:
         f"{result['trials']} trials at {result['tolerance']:g} m, seed "
         f"{result['seed']}; one knob at a time, the others nominal"
     )
-    lines = [head, f"{'knob':<14}{'level':>7} {'unit':<6}{'success':>8}"]
+    who = "every block" if result["env"] in OBJECT_ENVS else "the gripper"
+    what = (
+        f"success: at the last step ({result['horizon']}) {who} within "
+        f"{result['tolerance']:g} m of its target, on the true positions"
+    )
+    lines = [head, what, f"{'knob':<14}{'level':>7} {'unit':<6}{'success':>8}"]
     last = None
     for r in result["rows"]:
         name, last = (r["knob"] if r["knob"] != last else ""), r["knob"]
@@ -696,7 +701,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--seed",
         type=int,
         default=12345,
-        help="trial i's env is seeded seed + i (default: 12345, as eval)",
+        help="trial i's env is seeded seed + i (default: 12345, eval's default; "
+        "eval plays its episodes in turn in one env, so not these trials)",
     )
     p.add_argument(
         "--env", default=None, help="must be the policy's task (default: the policy's)"

@@ -107,3 +107,18 @@ def test_get_and_set_state_with_another_spec():
     E.set_state(env, only, spec=int(mujoco.mjtState.mjSTATE_MOCAP_POS))
     np.testing.assert_array_equal(env.data.mocap_pos, mocap)
     np.testing.assert_array_equal(env.data.qpos, qpos)
+
+
+def test_obs_names_label_each_finger_by_its_joint():
+    """Moving one finger joint moves the entry named after it (the right finger was
+    labelled left before): `obs_names` follows the model, not a guess."""
+    env = E.make_env("FetchPush-v4", seed=0)
+    names = E.obs_names(env)
+    for side in "rl":
+        before = env._get_obs()["observation"].copy()
+        j = env.model.joint(f"robot0:{side}_gripper_finger_joint")
+        env.data.qpos[j.qposadr[0]] += 0.01
+        mujoco.mj_forward(env.model, env.data)
+        moved = np.flatnonzero(env._get_obs()["observation"] != before)
+        assert f"finger_{side}" in [names[i] for i in moved]
+        assert f"finger_{'lr'[side == 'l']}" not in [names[i] for i in moved]

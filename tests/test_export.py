@@ -31,16 +31,17 @@ SIZES = {
 }
 
 
-def policy_dict(env_id: str, obs: str, seed: int = 0) -> dict:
+def policy_dict(env_id: str, obs: str, seed: int = 0, spread: float = 0.3) -> dict:
     """An untrained policy with fitted normalisers (statistics far from 0/1, so
-    normalising and its clip matter), as the trainer writes it."""
+    normalising and its clip matter), as the trainer writes it; `spread`: the
+    observations' std (a trained Fetch policy's are centimetres)."""
     n_o = SIZES[(env_id, obs)]
     n_g = 6 if env_id == "FetchPushMultiStep-v0" else 3
     rng = np.random.default_rng(seed)
     torch.manual_seed(seed)
     o_norm, g_norm = Normalizer(n_o), Normalizer(n_g)
-    o_norm.update(rng.normal(1.0, 0.3, (500, n_o)))
-    g_norm.update(rng.normal(0.8, 0.1, (500, n_g)))
+    o_norm.update(rng.normal(1.0, spread, (500, n_o)))
+    g_norm.update(rng.normal(0.8, spread / 3, (500, n_g)))
     pol = Policy(Actor(n_o + n_g, 4, 32, 3), o_norm, g_norm, 200.0)
     return dict(pol.state_dict(env_id, "acder"), obs=obs)
 
@@ -83,6 +84,32 @@ def test_export_acts_as_the_policy(tmp_path, env_id, obs):
     assert (m.env, m.obs) == (env_id, obs)
 
 
+def test_metadata_gives_units_and_frame(tmp_path):
+    """A robot engineer feeds the file from its metadata: every entry's unit, the
+    world frame's landmarks and the control step, what the gripper command does."""
+    pol = policy_dict("FetchPush-v4", "simplified")
+    meta = export_torchscript(pol, str(tmp_path / "p.ts"))
+    m = torch.jit.load(str(tmp_path / "p.ts"))
+    assert list(m.obs_units) == meta["obs_units"] and len(meta["obs_units"]) == 11
+    assert list(m.goal_units) == meta["goal_units"] and len(meta["goal_units"]) == 3
+    assert all(u.startswith("m, world frame") for u in meta["goal_units"])
+    unit = dict(zip(meta["full_obs_names"], meta["full_obs_units"]))
+    assert len(unit) == len(meta["full_obs_units"]) == 25
+    assert unit["grip_pos.x"].startswith("m, world frame")
+    assert unit["object_rel_pos.y"].startswith("m, the block's position minus")
+    assert "0.05 open" in unit["finger_l"] and unit["object_rot.z"].startswith("rad")
+    assert unit["object_velp.x"].startswith("m per control step")
+    w = meta["world"]
+    assert w["control_dt_s"] == pytest.approx(0.04)
+    assert np.allclose(w["initial_gripper_pos"], [1.363, 0.749, 0.416], atol=1e-3)
+    assert w["block_rest_z"] == pytest.approx(0.4249, abs=1e-4)
+    assert meta["action_units"][0].startswith("x 0.05 m")
+    assert meta["action_units"][3].startswith("ignored") and w["gripper_blocked"]
+    pick = dict(policy_dict("FetchPush-v4", "simplified"), env="FetchPickAndPlace-v4")
+    meta = export_torchscript(pick, str(tmp_path / "pick.ts"))
+    assert "> 0 opens" in meta["action_units"][3]
+
+
 def test_wrong_widths_are_refused(tmp_path):
     path = tmp_path / "p.ts"
     export_torchscript(policy_dict("FetchPush-v4", "simplified"), str(path))
@@ -116,9 +143,12 @@ def test_compare_with_package(tmp_path):
     on the same random inputs, compare."""
     from acder_lite.export import compare_with_package
 
-    pol = policy_dict("FetchPush-v4", "simplified")
+    pol = policy_dict("FetchPush-v4", "simplified", spread=0.05)
     check = compare_with_package(pol, str(tmp_path / "push.ts"), source="p.pt", n=20)
     assert check["imported"] == [] and check["gap"] <= 1e-6
+    # inputs where the policy acts, not pinned at the normalisers' clip (a tenth of
+    # the rows past it on purpose)
+    assert 0.0 < check["clipped"] < 0.15
     assert check["meta"]["source"] == "p.pt" and (tmp_path / "push.ts").is_file()
 
 
@@ -163,3 +193,8 @@ def test_onnx_same_actions(tmp_path):
     o, g = inputs(11, 3)
     u = s.run(None, {"observation": o, "goal": g})[0]
     assert np.abs(u - Policy.from_state_dict(pol)(o, g)).max() <= 1e-6
+    # the file documents its own inputs, as the TorchScript one does
+    meta = json.loads(s.get_modelmeta().custom_metadata_map[META_FILE])
+    assert meta["obs_names"][:3] == ["grip_pos.x", "grip_pos.y", "grip_pos.z"]
+    assert len(meta["obs_names"]) == len(meta["obs_units"]) == 11
+    assert meta["accepts"].startswith("observation: obs_names only")

@@ -25,7 +25,7 @@ def xyz(name):
     return [f"{name}.{c}" for c in "xyz"]
 
 
-FINGERS = ["finger_l", "finger_r"]
+FINGERS = ["finger_r", "finger_l"]
 ONE_BLOCK = xyz("grip_pos") + xyz("object_pos") + xyz("object_rel_pos") + FINGERS
 KEPT = {
     "FetchReach-v4": xyz("grip_pos") + FINGERS,

@@ -302,6 +302,9 @@ def test_cli_table_json_and_csv(cli, reach_policy, tmp_path):
     )
     assert p.returncode == 0, p.stderr
     assert "robust: FetchReach-v4, her (obs full), 2 trials at 0.05 m" in p.stdout
+    # what a count counts
+    success = "success: at the last step (50) the gripper within 0.05 m of its target"
+    assert p.stdout.splitlines()[1].startswith(success)
     assert "action_delay" in p.stdout and "/2  (nominal)" in p.stdout
     d = json.loads(js.read_text())
     assert [(r["knob"], r["level"]) for r in d["rows"]] == [
