@@ -33,6 +33,7 @@ end, so the gripper may be anywhere.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 
@@ -54,7 +55,7 @@ from .io import (
 from .observations import rotation_indices, sincos_names
 from .rewards import intrinsic_reward
 from .start_states import select_candidate
-from .wraps import angle_wraps
+from .wraps import GIMBAL_COS, angle_wraps, near_gimbal_lock
 
 
 def state_names(trainer) -> list[str]:
@@ -113,7 +114,8 @@ def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
     (`object_rot`), also `wraps`: the share of rows whose step turns a block through an
     angle's wrap (`wraps.angle_wraps`), that share among the rows at the clip, and among
     the start-state candidates the minibatches give (`start_states.select_candidate`,
-    one a minibatch, as training offers them).
+    one a minibatch, as training offers them); and `gimbal`, the same three shares for
+    the rows whose block is near gimbal lock (`wraps.near_gimbal_lock`).
     """
     if not isinstance(trainer.curiosity, SICM):
         raise ConfigError(
@@ -122,7 +124,8 @@ def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
         )
     eta = trainer.cfg.eta
     rot = _rot_fields(trainer.envs[0])
-    errs, succ, wrap, picked, sq = [], [], [], [], 0.0
+    errs, succ, sq = [], [], 0.0
+    wrap, lock, picked = [], [], []  # per row; `picked`: (wrap, lock) of a candidate
     with torch.no_grad():
         for _ in range(batches):
             b = trainer.sample_batch()
@@ -133,32 +136,41 @@ def curiosity_profile(trainer, batches: int = 10, top: int = 5) -> dict:
             succ.append(trainer.buffer.success[b["ep"]])
             sq = sq + (pred - x2).pow(2).mean(0).numpy() / batches
             if rot:
-                w = np.zeros(len(b["o"]), bool)
+                w, k = np.zeros(len(b["o"]), bool), np.zeros(len(b["o"]), bool)
                 for f in rot:  # (B, 2, 3): the angles before and after the step
-                    w |= angle_wraps(np.stack([b["o"][:, f], b["o2"][:, f]], 1))[:, 0]
+                    pair = np.stack([b["o"][:, f], b["o2"][:, f]], 1)
+                    w |= angle_wraps(pair)[:, 0]
+                    k |= near_gimbal_lock(pair)[:, 0]
                 wrap.append(w)
+                lock.append(k)
                 # Eq. 4 as the trainer takes it, so the candidate is the one it offers
                 r_int = intrinsic_reward(
                     pred.cpu().numpy(), x2.cpu().numpy(), eta
                 ).astype(np.float32)
                 row = select_candidate(r_int, succ[-1].astype(bool))
                 if row is not None:
-                    picked.append(bool(w[row]))
+                    picked.append((bool(w[row]), bool(k[row])))
     err, succ = np.concatenate(errs), np.concatenate(succ)
     names = state_names(trainer)
     order = np.argsort(-sq)[:top]
     extra = {}
     if rot:
-        w, clipped = np.concatenate(wrap), err >= eta
-        extra["wraps"] = dict(
-            share_of_rows=float(w.mean()),
-            share_at_clip=float(w[clipped].mean()) if clipped.any() else float("nan"),
-            candidates=len(picked),
-            share_of_candidates=float(np.mean(picked)) if picked else float("nan"),
-        )
+        clipped = err >= eta
+        for key, rows, i in (("wraps", wrap, 0), ("gimbal", lock, 1)):
+            m = np.concatenate(rows)
+            extra[key] = dict(
+                share_of_rows=float(m.mean()),
+                share_at_clip=float(m[clipped].mean()) if clipped.any() else math.nan,
+                candidates=len(picked),
+                share_of_candidates=(
+                    float(np.mean([p[i] for p in picked])) if picked else math.nan
+                ),
+            )
+        extra["gimbal"]["cos_below"] = GIMBAL_COS
     return (
         dict(
             eta=eta,
+            sicm_angles=trainer.cfg.sicm_angles,  # how S-ICM saw the angles
             rows=int(err.size),
             successful_rows=int(succ.sum()),
             share_at_clip=float((err >= eta).mean()),
@@ -570,8 +582,13 @@ def to_text(d: dict) -> str:
             f"  largest errors ({c['share_of_error_in_top']:.0%} of the total): "
             + ", ".join(f"{n} {v:.3g}" for n, v in c["top_entries"]),
         ]
-        w = c.get("wraps")
-        if w:
+        for key, what in (
+            ("wraps", "Euler-angle wraps"),
+            ("gimbal", f"near gimbal lock (|cos pitch| < {GIMBAL_COS})"),
+        ):
+            w = c.get(key)
+            if not w:
+                continue
             at_clip = (
                 f"{w['share_at_clip']:.2f} of the rows at the clip"
                 if w["share_at_clip"] == w["share_at_clip"]  # nan: no row at the clip
@@ -584,8 +601,7 @@ def to_text(d: dict) -> str:
                 else "no start-state candidate (no row of a successful episode)"
             )
             lines.append(
-                f"  Euler-angle wraps: {w['share_of_rows']:.4f} of all rows, "
-                f"{at_clip}, {picked}"
+                f"  {what}: {w['share_of_rows']:.4f} of all rows, {at_clip}, {picked}"
             )
     p = d.get("pool")
     if p:

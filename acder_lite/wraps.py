@@ -40,6 +40,23 @@ def angle_wraps(rot: np.ndarray) -> np.ndarray:
     return (np.abs(np.diff(np.asarray(rot, np.float64), axis=-2)) > np.pi).any(-1)
 
 
+GIMBAL_COS = 0.2
+"""`near_gimbal_lock`'s bound on |cos(pitch)|: a pitch within 11.5 degrees of +-90."""
+
+
+def near_gimbal_lock(rot: np.ndarray, cos_below: float = GIMBAL_COS) -> np.ndarray:
+    """Steps at which an object's pitch (the second Euler angle) is near +-pi/2 before
+    or after the step: `rot` as in `angle_wraps`, returns (..., T) bools, True where
+    |cos(pitch)| < `cos_below` at either end.
+
+    A cube pitched by 90 degrees lies on a side face, an ordinary pose for a pushed
+    block that tipped over, but there `mat2euler`'s other two angles are degenerate
+    (gimbal lock): any wobble swings them by up to pi, and unlike a wrap, their
+    (sin, cos) swings too (`Config.sicm_angles="sincos"` does not smooth it)."""
+    locked = np.abs(np.cos(np.asarray(rot, np.float64)[..., 1])) < cos_below
+    return locked[..., :-1] | locked[..., 1:]
+
+
 def curiosity_in_reward(method: str) -> bool:
     """Whether `method` adds a curiosity bonus (S-ICM's or ICM's) to its reward."""
     return bool(METHODS[method]["curiosity_reward"])
@@ -158,8 +175,9 @@ def buffer_readings(folder: str | Path) -> list[dict]:
 
 
 def buffer_sentence(d: dict) -> str:
-    """One buffer reading (`buffer_readings`) in a sentence. A share of no rows (no row
-    at the clip, no candidate) is null in the file and said in words here."""
+    """One buffer reading (`buffer_readings`) in a sentence, and one more for the rows
+    near gimbal lock where the reading has them. A share of no rows (no row at the
+    clip, no candidate) is null in the file and said in words here."""
     c, w = d["curiosity"], d["curiosity"]["wraps"]
     at_clip = (
         "no row is at the clip"
@@ -173,14 +191,27 @@ def buffer_sentence(d: dict) -> str:
         else f"{n} of the {w['candidates']} start-state candidates the minibatches "
         f"give {'is a wrap' if n == 1 else 'are wraps'}"
     )
-    return (
-        f"In the replay buffer of `{d['run']}` ({d['method']}, {d['episodes']:,} "
-        f"episodes), {c['share_at_clip']:.1%} of {c['rows']:,} minibatch rows sit at "
-        f"Eq. 4's clip and {w['share_of_rows']:.2%} of all rows are wraps; {at_clip}, "
-        f"and {picked}"
+    how = ", S-ICM on (sin, cos)" if c.get("sicm_angles") == "sincos" else ""
+    text = (
+        f"In the replay buffer of `{d['run']}` ({d['method']}{how}, "
+        f"{d['episodes']:,} episodes), {c['share_at_clip']:.1%} of {c['rows']:,} "
+        f"minibatch rows sit at Eq. 4's clip and {w['share_of_rows']:.2%} of all rows "
+        f"are wraps; {at_clip}, and {picked}"
         + (
             "."
             if METHODS[d["method"]]["start_states"]
             else " (the rule's picks: this method restarts from none)."
         )
     )
+    k = c.get("gimbal")  # readings written before diagnose counted it have none
+    if k:
+        deg = np.degrees(np.arcsin(k["cos_below"]))
+        at_clip = (
+            "" if k["share_at_clip"] is None else f", {k['share_at_clip']:.0%} of those"
+        )
+        text += (
+            f" A block near gimbal lock (pitched within {deg:.1f} degrees of +-90, on "
+            f"a side face) is in {k['share_of_rows']:.0%} of the rows{at_clip} at "
+            "the clip."
+        )
+    return text

@@ -102,8 +102,14 @@ def test_curiosity_profile_finds_the_euler_wraps():
     assert w["share_of_candidates"] == 1.0
     assert w["share_at_clip"] == 1.0  # an error of about 2 pi^2 at raw inputs
     buf.o[: buf.n, :, rot] = 0.0
-    w = D.curiosity_profile(tr, batches=3)["wraps"]
+    c = D.curiosity_profile(tr, batches=3)
+    w, k = c["wraps"], c["gimbal"]
     assert w["share_of_rows"] == 0.0 and w["share_of_candidates"] == 0.0
+    assert k["share_of_rows"] == 0.0 and c["sicm_angles"] == "euler"
+    buf.o[: buf.n, 1::2, rot.start + 1] = np.pi / 2  # on a side face every other step
+    k = D.curiosity_profile(tr, batches=3)["gimbal"]
+    assert k["share_of_rows"] == 1.0 and k["share_of_candidates"] == 1.0
+    buf.o[: buf.n, :, rot] = 0.0
     text = D.to_text(
         dict(
             run="r",
@@ -113,6 +119,7 @@ def test_curiosity_profile_finds_the_euler_wraps():
         )
     )
     assert "Euler-angle wraps: 0.0000 of all rows" in text
+    assert "near gimbal lock (|cos pitch| < 0.2): 0.0000 of all rows" in text
     buf.success[: buf.n] = False  # no candidate, and no "nan" in the text
     c = D.curiosity_profile(tr, 2)
     assert c["wraps"]["candidates"] == 0
@@ -422,7 +429,7 @@ def test_minibatch_errors_match_the_trainers_intrinsic_reward():
     np.testing.assert_array_equal(out["successful"][:B], tr.buffer.success[b["ep"]])
     seen = {}
     tr.cfg.eta = 1e9
-    tr.selector.offer = lambda batch, r_int, buf: seen.setdefault("r", r_int.copy())
+    tr.selector.offer = lambda batch, r_int, *rest: seen.setdefault("r", r_int.copy())
     tr.rewards(b, tr.batch_tensors(b))
     np.testing.assert_allclose(out["err"][:B], seen["r"], rtol=1e-5)
     assert np.ptp(seen["r"]) > 0  # distinct rows, compared one by one

@@ -97,7 +97,32 @@ def test_buffer_readings_in_a_sentence(tmp_path):
     assert W.buffer_sentence(got).endswith(
         "are wraps (the rule's picks: this method restarts from none)."
     )
+    # a reading of S-ICM on (sin, cos), with the rows near gimbal lock counted
+    sincos = json.loads(json.dumps(got))
+    sincos["curiosity"] |= dict(
+        sicm_angles="sincos",
+        gimbal=dict(share_of_rows=0.18, share_at_clip=0.88, cos_below=0.2),
+    )
+    text = W.buffer_sentence(sincos)
+    assert "(acder-no-start-states, S-ICM on (sin, cos), 10,400 episodes)" in text
+    assert text.endswith(
+        " A block near gimbal lock (pitched within 11.5 degrees of +-90, on a side "
+        "face) is in 18% of the rows, 88% of those at the clip."
+    )
     # no row at the clip, no candidate: null in the file, words in the sentence
     got["curiosity"]["wraps"] |= dict(share_at_clip=None, candidates=0)
     text = W.buffer_sentence(got)
     assert "no row is at the clip, and no start-state candidate was drawn" in text
+
+
+def test_near_gimbal_lock_by_hand():
+    """The pitch (second angle) at 1.5 rad, |cos| = 0.071 < 0.2, at step 1 of three
+    observations: both steps touching it are near the lock; 1.3 rad (|cos| = 0.27) is
+    not, unless the bound is raised to 0.3."""
+    rot = np.array([[[0.0, 0.0, 0.0], [2.0, 1.5, -1.0], [0.1, 0.2, 0.3]]])
+    assert W.near_gimbal_lock(rot).tolist() == [[True, True]]
+    rot[0, 1, 1] = 1.3
+    assert not W.near_gimbal_lock(rot).any()
+    assert W.near_gimbal_lock(rot, cos_below=0.3).tolist() == [[True, True]]
+    rot[0, 1, 1] = -np.pi / 2  # the other side face
+    assert W.near_gimbal_lock(rot).tolist() == [[True, True]]
