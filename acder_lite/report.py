@@ -485,6 +485,9 @@ class CellStat:
     """Share of the bootstrap resamples whose mean curve crosses."""
     seed_crossings: list = field(default_factory=list)
     """Each seed's own first crossing (epochs; None where it has not crossed)."""
+    seed_ended: list = field(default_factory=list)
+    """Per seed, whether it has ended (done.json): a seed that ended without a crossing
+    never will."""
     seed_median: float | None = None
     seed_mean: float | None = None
     seed_low: float | None = None
@@ -567,6 +570,7 @@ def cell_stat(
         for r in runs
     ]
     c.seed_crossings = [first_crossing(s.x, s.y, thr) for s in curves]
+    c.seed_ended = [r["ended"] is not None for r in runs]
     c.earliest = earliest_crossing(curves, max(c.planned or 0, c.n), thr)
     summ = seed_summary(c.seed_crossings)
     c.seed_median, c.seed_mean, c.seed_low, c.seed_high, c.k = (

@@ -170,18 +170,22 @@ def interval_text(c: CellStat) -> str:
 def per_seed_text(c: CellStat) -> str:
     if not c.n:
         return "–"
-    missing = (
-        "not yet" if c.unfinished else "not crossed"
-    )  # a seed still training may cross
+    # a seed still training may cross; one that ended without crossing never will,
+    # and then the slowest seed and the mean are "not crossed" for good
+    settled = not c.unfinished or any(
+        x is None and e for x, e in zip(c.seed_crossings, c.seed_ended)
+    )
 
-    def one(x):
-        return missing if x is None or math.isinf(x) else episodes(c.paper_units(x))
+    def one(x, final=not c.unfinished):
+        if x is None or math.isinf(x):
+            return "not crossed" if final else "not yet"
+        return episodes(c.paper_units(x))
 
     if c.n == 1:
         return f"{one(c.seed_median)}, {c.k}/1"
     return (
-        f"{one(c.seed_median)} ({one(c.seed_low)} – {one(c.seed_high)}), "
-        f"mean {one(c.seed_mean)}, {c.k}/{c.n}"
+        f"{one(c.seed_median)} ({one(c.seed_low)} – {one(c.seed_high, settled)}), "
+        f"mean {one(c.seed_mean, settled)}, {c.k}/{c.n}"
     )
 
 

@@ -874,3 +874,25 @@ def test_ablation_sentence_names_fewer_seeds_at_a_100_percent_threshold():
             "ACDER w/o curiosity (2 seeds) against full ACDER's 3;" in s
         ) == named, s
         assert s.endswith(".") and not s.endswith("..")
+
+
+def test_per_seed_column_says_not_crossed_for_a_seed_that_ended():
+    """Seed 0 ended at its budget without crossing, seed 1 is still training: the
+    slowest seed and the mean are 'not crossed' for good, the median 'not yet'."""
+    rows = [dict(epoch=float(i), episodes=400.0 * i, test_success=0.1) for i in (1, 2)]
+    r = dict(
+        env=P,
+        name="her",
+        method="her",
+        rows=rows,
+        budget_epochs=2.0,
+        episodes_per_epoch=400.0,
+        update_dtype="float32",
+    )
+    ended, training = dict(r, seed=0, ended="budget"), dict(r, seed=1, ended=None)
+    c = RE.cell_stat(P, "her", [ended, training], n_boot=20)
+    assert (
+        T.per_seed_text(c) == "not yet (not yet – not crossed), mean not crossed, 0/2"
+    )
+    c = RE.cell_stat(P, "her", [dict(training, seed=0), training], n_boot=20)
+    assert T.per_seed_text(c) == "not yet (not yet – not yet), mean not yet, 0/2"
