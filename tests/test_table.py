@@ -478,7 +478,7 @@ def test_html_table(results):
     assert "|" not in html
 
 
-def cell(name, values, env=P, ended="budget"):
+def cell(name, values, env=P, ended="budget", seeds=2):
     rows = [
         dict(epoch=float(i), episodes=400.0 * i, test_success=v)
         for i, v in enumerate(values, 1)
@@ -494,7 +494,7 @@ def cell(name, values, env=P, ended="budget"):
         episodes_per_epoch=400.0,
         update_dtype="float32",
     )
-    return RE.cell_stat(env, name, [r, dict(r, seed=1)], n_boot=100)
+    return RE.cell_stat(env, name, [dict(r, seed=i) for i in range(seeds)], n_boot=100)
 
 
 def test_sentences_for_the_book():
@@ -848,27 +848,10 @@ def test_ablation_sentence_names_fewer_seeds_at_a_100_percent_threshold():
     """On Reach (100%) an ablation of 2 seeds against ACDER's 3 is named; on Push (95%)
     the sentence does not add it."""
     R = "FetchReach-v4"
-
-    def seeds(name, env, k):
-        rows = [
-            dict(epoch=float(i), episodes=400.0 * i, test_success=v)
-            for i, v in enumerate([0.5, 1.0, 1.0, 1.0], 1)
-        ]
-        r = dict(
-            env=env,
-            name=name,
-            method=name,
-            rows=rows,
-            ended="budget",
-            budget_epochs=4.0,
-            episodes_per_epoch=400.0,
-            update_dtype="float32",
-        )
-        return RE.cell_stat(env, name, [dict(r, seed=i) for i in range(k)], n_boot=50)
-
+    values = [0.5, 1.0, 1.0, 1.0]
     for env, named in ((R, True), (P, False)):
-        acder = seeds("acder", env, 3)
-        abl = seeds("acder-no-curiosity", env, 2)
+        acder = cell("acder", values, env=env, seeds=3)
+        abl = cell("acder-no-curiosity", values, env=env, seeds=2)
         s = T.ablation_sentence([acder, abl], env)
         assert (
             "ACDER w/o curiosity (2 seeds) against full ACDER's 3;" in s
