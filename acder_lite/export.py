@@ -23,7 +23,7 @@ The robot side:
 Inputs may be one observation or a batch (leading axes), of any float dtype; the action
 is float32. A wrong input width raises a ValueError naming the widths it accepts. The
 file also holds `acder_lite.json` (env, method, observation set, names, units, clips,
-the frame, the source file, the versions): `torch.jit.load(path,
+the frame, the source file, how far its run had trained, the versions): `torch.jit.load(path,
 _extra_files={"acder_lite.json": ""})` fills it in.
 
 **Units and frame** (`units`, `world`; `policy.obs_units`, `policy.goal_units`): every
@@ -246,9 +246,47 @@ def script(module: DeployedPolicy) -> torch.jit.ScriptModule:
         return torch.jit.script(module)
 
 
-def metadata(module: DeployedPolicy, source: str, onnx: bool = False) -> dict:
+def trained_of(pol: dict, source: str = "") -> dict | None:
+    """How far the policy's run had trained when the file was written: epochs,
+    training episodes and the last evaluation's test success, with where that was
+    read (`from`). A policy dict written since the trainer records it carries it
+    (`trained`); an older one is read from the `done.json` beside `source` (a finished
+    run's policy.pt and checkpoint.pt are its last epoch's); else None (unknown: an
+    older file of a run still training, or one moved out of its run folder)."""
+    if isinstance(pol.get("trained"), dict):
+        return dict(pol["trained"], **{"from": "the policy file"})
+    done = os.path.join(os.path.dirname(source), "done.json") if source else ""
+    if done and os.path.isfile(done):
+        try:
+            with open(done) as f:
+                d = json.load(f)
+            return {
+                "epochs": float(d["epochs"]),
+                "episodes": int(d["episodes"]),
+                "test_success": float(d["final_test_success"]),
+                "from": "done.json beside the policy file (the run had ended)",
+            }
+        except (OSError, ValueError, KeyError, TypeError):
+            return None  # a done.json of another shape: unknown, not guessed
+    return None
+
+
+def trained_text(trained: dict | None) -> str:
+    """`trained_of`'s answer as words for the export's line."""
+    if trained is None:
+        return "how far its run had trained is not recorded"
+    ts = trained.get("test_success")
+    return f"trained {trained['epochs']:g} epochs, {trained['episodes']:,} episodes" + (
+        "" if ts is None else f", test success {ts:.2f} at its last evaluation"
+    )
+
+
+def metadata(
+    module: DeployedPolicy, source: str, onnx: bool = False, trained: dict | None = None
+) -> dict:
     """The file's `acder_lite.json`: what each input and output number is, in which
-    unit and frame (`UNITS`, `world_of`), and where the file came from."""
+    unit and frame (`UNITS`, `world_of`), where the file came from and how far its run
+    had trained (`trained_of`; None where unknown)."""
     from .runfiles import versions
 
     world = json.loads(module.world)
@@ -261,6 +299,7 @@ def metadata(module: DeployedPolicy, source: str, onnx: bool = False) -> dict:
         method=module.method,
         obs=module.obs,
         source=source,
+        trained=trained,
         accepts=accepts,
         obs_names=module.obs_names,
         obs_units=module.obs_units,
@@ -283,7 +322,7 @@ def export_torchscript(pol: dict, out: str, source: str = "") -> dict:
     metadata it holds."""
     module = build(pol, source or "policy")
     scripted = script(module)
-    meta = metadata(module, source)
+    meta = metadata(module, source, trained=trained_of(pol, source))
     extra = {META_FILE: json.dumps(meta, indent=2)}
 
     def write(f):
@@ -422,7 +461,10 @@ def export_onnx(pol: dict, out: str, source: str = "") -> None:
         import onnx
 
         model = onnx.load(path)
-        meta = json.dumps(metadata(module, source, onnx=True), indent=2)
+        meta = json.dumps(
+            metadata(module, source, onnx=True, trained=trained_of(pol, source)),
+            indent=2,
+        )
         onnx.helper.set_model_props(model, {META_FILE: meta})
         data = model.SerializeToString()
     atomic_write(out, lambda f: f.write(data))
@@ -495,7 +537,7 @@ def run(args) -> int:
     line = (
         f"export: {args.out} ({meta['env']}, {meta['method']}, obs {meta['obs']}: "
         f"{len(meta['obs_names'])} observation entries, {len(meta['goal_names'])} "
-        "goal entries)"
+        "goal entries; " + trained_text(meta["trained"]) + ")"
     )
     if args.onnx:
         try:

@@ -564,9 +564,16 @@ class Trainer:
 
     def policy_state(self) -> dict:
         # obs: what the policy sees, so eval, robust and export rebuild its input
-        # (io.check_policy)
+        # (io.check_policy); trained: how far the run had got when it was saved, which
+        # the export's metadata carries to the robot
         return dict(
-            self.policy.state_dict(self.cfg.env, self.cfg.method), obs=self.cfg.obs
+            self.policy.state_dict(self.cfg.env, self.cfg.method),
+            obs=self.cfg.obs,
+            trained=dict(
+                epochs=self.cycle / self.cfg.cycles,
+                episodes=self.episodes,
+                test_success=self.rows[-1]["test_success"] if self.rows else None,
+            ),
         )
 
     def state_dict(self) -> dict:

@@ -161,6 +161,37 @@ def test_build_refuses_a_policy_whose_sizes_are_not_its_task(tmp_path):
         build(pol)
 
 
+def test_metadata_says_how_far_the_run_trained(tmp_path):
+    """A policy.pt carries its run's epochs, episodes and last test success; an older
+    one (written without them) is read from the done.json beside it, else unknown."""
+    from acder_lite.export import trained_of
+    from acder_lite.io import load_torch
+    from acder_lite.trainer import Trainer
+
+    from conftest import rows_of, tiny_config
+
+    run = tmp_path / "run"
+    tr = Trainer(tiny_config(epochs=2), str(run))
+    tr.train(False)
+    src = str(run / "policy.pt")
+    pol = load_torch(src)["policy"]
+    last = rows_of(run / "progress.csv")[-1]
+    want = dict(
+        epochs=2.0, episodes=tr.episodes, test_success=float(last["test_success"])
+    )
+    assert want["episodes"] == 2 * 3 * 2  # epochs x cycles x 2 episodes a cycle
+    assert trained_of(pol, src) == dict(want, **{"from": "the policy file"})
+    meta = export_torchscript(pol, str(tmp_path / "p.ts"), src)
+    assert meta["trained"] == trained_of(pol, src)
+    older = {k: v for k, v in pol.items() if k != "trained"}
+    from_done = trained_of(older, src)
+    assert from_done["from"].startswith("done.json")
+    assert {k: from_done[k] for k in want} == want
+    assert trained_of(older, str(tmp_path / "policy.pt")) is None  # no run folder
+    (run / "done.json").write_text("{}")
+    assert trained_of(older, src) is None  # a done.json of another shape: not guessed
+
+
 def test_cli(cli, tmp_path):
     from acder_lite.io import save_torch
 
@@ -170,6 +201,7 @@ def test_cli(cli, tmp_path):
     assert p.returncode == 0, p.stderr
     assert p.stdout.startswith("export: ")
     assert "obs simplified: 5 observation entries" in p.stdout
+    assert "how far its run had trained is not recorded" in p.stdout
     extra = {META_FILE: ""}
     torch.jit.load(str(tmp_path / "reach.ts"), _extra_files=extra)
     assert json.loads(extra[META_FILE])["env"] == "FetchReach-v4"
