@@ -680,7 +680,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=5,
         help="state entries to name by S-ICM error (default: 5)",
     )
-    parser.add_argument("--json", metavar="FILE", help="also write the numbers to FILE")
+    parser.add_argument(
+        "--json",
+        metavar="FILE",
+        help="also write the numbers to FILE (replaced if it exists)",
+    )
 
 
 def run(args) -> int:

@@ -716,12 +716,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--threads", type=int, default=1, help="torch threads (default: 1)")
     p.add_argument(
-        "--json", metavar="FILE", help="write the settings and every row to FILE"
+        "--json",
+        metavar="FILE",
+        help="write the settings and every row to FILE (replaced if it exists)",
     )
     p.add_argument(
         "--csv",
         metavar="FILE",
-        help="write the table to FILE (" + ", ".join(CSV_COLUMNS) + ")",
+        help="write the table to FILE (replaced if it exists; columns "
+        + ", ".join(CSV_COLUMNS)
+        + ")",
     )
 
 
