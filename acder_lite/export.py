@@ -23,8 +23,8 @@ The robot side:
 Inputs may be one observation or a batch (leading axes), of any float dtype; the action
 is float32. A wrong input width raises a ValueError naming the widths it accepts. The
 file also holds `acder_lite.json` (env, method, observation set, names, units, clips,
-the frame, the source file, how far its run had trained, the versions): `torch.jit.load(path,
-_extra_files={"acder_lite.json": ""})` fills it in.
+the frame, the source file, how far its run had trained, the versions):
+`torch.jit.load(path, _extra_files={"acder_lite.json": ""})` fills it in.
 
 **Units and frame** (`units`, `world`; `policy.obs_units`, `policy.goal_units`): every
 position is in metres in the simulator's world frame (z up), where the normalisers were
