@@ -607,6 +607,21 @@ def cell_stat(
     return c
 
 
+def cell_on_seeds(
+    runs: list[dict], env: str, name: str, seeds, n_boot: int = BOOTSTRAP_RESAMPLES
+) -> CellStat | None:
+    """`cell_stat` of cell (env, name) on the given seeds alone: one cell read on
+    another's seeds, so the two are compared like for like. None unless every one of
+    those seeds has a run."""
+    picked = [r for r in runs if (r["env"], r["name"]) == (env, name)]
+    picked = sorted(
+        (r for r in picked if r["seed"] in set(seeds)), key=lambda r: str(r["seed"])
+    )
+    if not picked or len(picked) != len(set(seeds)):
+        return None
+    return cell_stat(env, name, picked, n_boot=n_boot)
+
+
 def summarize(
     runs: list[dict],
     planned: dict | None = None,

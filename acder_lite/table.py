@@ -27,6 +27,7 @@ from .report import (
     PAPER_EPISODES_PER_EPOCH,
     TAIL_EVALUATIONS,
     CellStat,
+    cell_on_seeds,
     RatioStat,
     choose,
     column_tail,
@@ -658,12 +659,15 @@ def reached(c: CellStat) -> float | None:
     return math.inf if c.why == "not within budget" and complete(c) else None
 
 
-def ablation_sentence(cells: list[CellStat], env: str) -> str:
+def ablation_sentence(
+    cells: list[CellStat], env: str, runs: list[dict] | None = None
+) -> str:
     """Fig. 5's claims checked on one task: every ablation slower than ACDER, and
     (curiosity, start states) still faster than HER. A cell that ended without crossing
     counts as later than every crossing (`reached`). At a 100% threshold an ablation
     with fewer seeds than ACDER is named: its mean curve needs fewer seeds at 100% at
-    once (departure 29)."""
+    once (departure 29); given the `runs`, full ACDER's mean curve on those seeds alone
+    is read too (`report.cell_on_seeds`), the like-for-like comparison."""
     by = {c.name: c for c in cells if c.env == env}
     where = task_label(env)
     acder, her = by.get("acder"), by.get("her")
@@ -704,6 +708,13 @@ def ablation_sentence(cells: list[CellStat], env: str) -> str:
             + f" against full ACDER's {acder.n}; the table's per-seed crossings "
             "compare them more fairly"
         )
+        common = sorted(set.intersection(*(set(c.seeds) for c in fewer)), key=str)
+        same = cell_on_seeds(runs or [], env, "acder", common) if common else None
+        if same is not None:
+            text += (
+                f", and so does full ACDER's mean curve on their seeds "
+                f"({', '.join(map(str, common))}) alone: {mean_text(same)}"
+            )
     return text + "."
 
 

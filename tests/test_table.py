@@ -859,6 +859,48 @@ def test_ablation_sentence_names_fewer_seeds_at_a_100_percent_threshold():
         assert s.endswith(".") and not s.endswith("..")
 
 
+def test_ablation_sentence_reads_acder_on_the_ablations_seeds():
+    """Reach (100%): ACDER's seeds 0 and 1 reach 1.0 at epoch 2, its seed 2 at epoch 4,
+    so its mean curve over 3 seeds crosses at 4 epochs, on seeds 0 and 1 alone at 2:
+    the like-for-like reading beside an ablation of those 2 seeds."""
+    R = "FetchReach-v4"
+
+    def runs(name, curves):
+        return [
+            dict(
+                env=R,
+                name=name,
+                method=name,
+                seed=k,
+                rows=[
+                    dict(epoch=float(i), episodes=400.0 * i, test_success=v)
+                    for i, v in enumerate(ys, 1)
+                ],
+                ended="budget",
+                budget_epochs=float(len(ys)),
+                episodes_per_epoch=400.0,
+                update_dtype="float32",
+            )
+            for k, ys in enumerate(curves)
+        ]
+
+    fast, slow = [0.5, 1.0, 1.0, 1.0], [0.0, 0.5, 0.5, 1.0]
+    acder_runs = runs("acder", [fast, fast, slow])
+    abl_runs = runs("acder-no-curiosity", [fast, fast])
+    acder = RE.cell_stat(R, "acder", acder_runs, n_boot=50)
+    abl = RE.cell_stat(R, "acder-no-curiosity", abl_runs, n_boot=50)
+    assert acder.crossing == 4.0 and abl.crossing == 2.0
+    same = RE.cell_on_seeds(acder_runs, R, "acder", [0, 1])
+    assert same.n == 2 and same.crossing == 2.0
+    assert RE.cell_on_seeds(acder_runs, R, "acder", [0, 3]) is None  # no seed 3
+    s = T.ablation_sentence([acder, abl], R, acder_runs + abl_runs)
+    assert (
+        "so does full ACDER's mean curve on their seeds (0, 1) alone: "
+        f"{T.mean_text(same)}." in s
+    ), s
+    assert "on their seeds" not in T.ablation_sentence([acder, abl], R)
+
+
 def test_per_seed_column_says_not_crossed_for_a_seed_that_ended():
     """Seed 0 ended at its budget without crossing, seed 1 is still training: the
     slowest seed and the mean are 'not crossed' for good, the median 'not yet'."""
