@@ -337,7 +337,8 @@ def pool_profile(trainer, far: float = 0.2) -> dict:
             blocks.append([o[s] for s in pos])
             goals.append(np.asarray(c["goal"], np.float64).reshape(k, 3))
         r_int.append(c["r_int"])
-    out = dict(size=len(pool), far=far, eta=trainer.cfg.eta)
+    eta = trainer.cfg.eta
+    out = dict(size=len(pool), far=far, eta=eta)
     if not pool:
         return out
     grip, other, r_int = np.array(grip), np.array(other), np.array(r_int)
@@ -348,7 +349,9 @@ def pool_profile(trainer, far: float = 0.2) -> dict:
         to_target = np.linalg.norm(blocks - goals, axis=-1)
         d = to_block.min(axis=1)
     out.update(
-        share_at_clip=float((r_int >= trainer.cfg.eta).mean()),
+        # r_int is S-ICM's min(err, eta) in float32: an eta that float32 rounds down
+        # (0.7) is stored below the float64 eta, so compare with the lower of the two
+        share_at_clip=float((r_int >= min(eta, float(np.float32(eta)))).mean()),
         distance_to=("object" if k == 1 else "nearest block" if k else "goal"),
         distance_median=float(np.median(d)),
         distance_max=float(d.max()),

@@ -56,6 +56,10 @@ def test_pool_profile_measures_the_stored_states():
     assert p["size"] == 6
     assert p["distance_to"] == "object"
     assert p["share_at_clip"] == pytest.approx(0.5)
+    tr.cfg.eta = 0.7  # float32 rounds it down: S-ICM stores float(float32(0.7)) < 0.7
+    for c in tr.selector.pool:
+        c["r_int"] = float(np.float32(min(c["r_int"], 0.7)))
+    assert D.pool_profile(tr, far=far)["share_at_clip"] == pytest.approx(0.5)
     assert p["distance_median"] == pytest.approx(np.median(dists), abs=1e-9)
     assert p["distance_max"] == pytest.approx(max(dists), abs=1e-9)
     assert p["share_far"] == pytest.approx(np.mean(np.array(dists) > far))
