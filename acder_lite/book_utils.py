@@ -123,6 +123,30 @@ def progress_sentence(
     return f"{label}: " + "; ".join(parts) + "."
 
 
+def best_sentence(
+    progress: dict[str, list[dict]], threshold: float, random_success: float
+) -> str:
+    """What runs of `run_progress` (by label) show at their best, in one sentence: which
+    reached `threshold` at an evaluation, and the best test success of each method's
+    seeds beside a random arm's `random_success`; "" when there is no run."""
+    best = {
+        lab: max(s["best"] for s in seeds) for lab, seeds in progress.items() if seeds
+    }
+    if not best:
+        return ""
+    each = ", ".join(f"{v:.2f} for {lab}" for lab, v in best.items())
+    hit = [lab for lab, v in best.items() if v >= threshold]
+    head = (
+        f"No run reached the {threshold:.0%} threshold at any evaluation"
+        if not hit
+        else f"Runs of {', '.join(hit)} reached the {threshold:.0%} threshold"
+    )
+    return (
+        f"{head}: the best test success was {each}, against {random_success:.2f} "
+        "for a random arm."
+    )
+
+
 def seed_crossings(
     runs: list[dict], env: str, name: str, threshold: float
 ) -> list[dict]:
