@@ -16,7 +16,14 @@ from gymnasium.utils.env_checker import check_env
 import acder_lite  # noqa: F401  (registers FetchPushMultiStep-v0)
 from acder_lite import envs as E
 from acder_lite import multistep as M
-from acder_lite.config import ENV_IDS, OBJECT_ENVS, TASK_PRESETS, Config, ConfigError
+from acder_lite.config import (
+    ENV_IDS,
+    METHODS,
+    OBJECT_ENVS,
+    TASK_PRESETS,
+    Config,
+    ConfigError,
+)
 
 ID = "FetchPushMultiStep-v0"
 
@@ -340,7 +347,7 @@ def test_energy_counts_both_blocks():
     )  # kinetic adds up
 
 
-@pytest.mark.parametrize("method", ["acder", "her-ebp"])
+@pytest.mark.parametrize("method", sorted(METHODS))
 def test_every_method_runs_on_the_multistep_push(method):
     from acder_lite.trainer import Trainer
     from conftest import tiny_config
