@@ -241,7 +241,9 @@ class Config:
     target_clip: str = "baselines"
     """Range of the critic's target y: 'baselines' ([-1/(1-gamma), 0], Baselines'
     clip_pos_returns, for every method) or 'wide' ([-lambda_max, r_i_max] / (1 - gamma),
-    the range ACDER's shaped rewards can reach: protocol v1's ACDER)."""
+    the range the method's shaped rewards can reach: protocol v1, for every method,
+    where it differed from Baselines' for ACDER, its ablations and HER+ICM; departure
+    13)."""
     lr_actor: float = 1e-3
     """Adam learning rate of the actor."""
     lr_critic: float = 1e-3

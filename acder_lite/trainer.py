@@ -61,7 +61,8 @@ def target_clip(
 
     "baselines" (protocol v2, every method): Baselines' [-1/(1-gamma), 0] whatever the
     rewards (its clip_pos_returns), so accumulated curiosity cannot make Q positive.
-    "wide" (protocol v1's ACDER): the rewards lambda * r_her + r_i + bonus lie in
+    "wide" (protocol v1, every method; not Baselines' where r_i or the goal factor is
+    in the reward): the rewards lambda * r_her + r_i + bonus lie in
     [bonus - lambda_max, bonus + r_i_max], so y is clipped to that range over
     1 - gamma, lambda_max = 1.5 with the goal factor (Eq. 6), r_i_max = eta when r_i is
     in the reward (Eq. 4), bonus = `Config.reward_bonus`.
