@@ -25,6 +25,7 @@ from .config import TASK_PRESETS, ConfigError
 from .report import (
     ABLATIONS,
     PAPER_EPISODES_PER_EPOCH,
+    TASKS,
     TAIL_EVALUATIONS,
     CellStat,
     cell_on_seeds,
@@ -567,11 +568,12 @@ def order_sentence(cells: list[CellStat]) -> str:
     crossed = sorted(
         (c for c in cells if c.crossing is not None), key=lambda c: c.crossing
     )
-    parts = (
-        [" < ".join(f"{label(c.name)} {units(c, c.crossing)}" for c in crossed)]
-        if crossed
-        else []
-    )
+    chain = ""
+    for i, c in enumerate(crossed):  # equal crossings are ties, not an order
+        if i:
+            chain += " = " if c.crossing == crossed[i - 1].crossing else " < "
+        chain += f"{label(c.name)} {units(c, c.crossing)}"
+    parts = [chain] if crossed else []
     parts += [
         f"{label(c.name)} {mean_text(c)}" for c in cells if c.crossing is None and c.n
     ]
@@ -716,6 +718,52 @@ def ablation_sentence(
                 f"({', '.join(map(str, common))}) alone: {mean_text(same)}"
             )
     return text + "."
+
+
+def separated_sentence(cells: list[CellStat], tasks=TASKS) -> str:
+    """Which ablations the readings' rule (`report.separated`: each crossing outside
+    the other's 95% interval) separates from full ACDER, task by task; a task is left
+    out until every planned seed of its ablations and of ACDER has ended."""
+    by = {(c.env, c.name): c for c in cells}
+    parts = []
+    for e in tasks:
+        if (e, "acder") not in by or any((e, n) not in by for n in ABLATIONS):
+            continue
+        rule = {n: separated(by[e, n], by[e, "acder"]) for n in ABLATIONS}
+        if None not in rule.values():
+            parts.append(
+                f"on {task_label(e)}: "
+                + and_join([label(n) for n, s in rule.items() if s])
+            )
+    return sentence(parts) or "No task has all its ablations finished yet."
+
+
+def seed_ratio_sentence(rs: list[RatioStat]) -> str:
+    """HER / ACDER read per seed (the ratio of the seeds' median crossings, then of
+    their means) beside the paper's, for each task where both can be read."""
+    parts = [
+        f"on {task_label(r.env)} {r.seed_ratio:.1f} and {r.seed_mean_ratio:.1f}, "
+        f"against the paper's {r.paper:.1f}"
+        for r in rs
+        if None not in (r.seed_ratio, r.seed_mean_ratio, r.paper)
+    ]
+    return "; ".join(parts) or "not readable yet on any task"
+
+
+def beside_paper_sentence(cells: list[CellStat], tasks=TASKS) -> str:
+    """Our HER and ACDER mean-curve crossings beside the paper's numbers, for each task
+    where both cells have crossed."""
+    by = {(c.env, c.name): c for c in cells}
+    parts = []
+    for e in tasks:
+        h, a = by.get((e, "her")), by.get((e, "acder"))
+        if h is None or a is None or None in (h.crossing, a.crossing):
+            continue
+        parts.append(
+            f"on {task_label(e)}, DDPG+HER {mean_text(h)} against the paper's "
+            f"{h.paper:,} and DDPG+ACDER {mean_text(a)} against its {a.paper:,}"
+        )
+    return sentence(parts) or "No task has both crossings yet."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

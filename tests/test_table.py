@@ -921,3 +921,41 @@ def test_per_seed_column_says_not_crossed_for_a_seed_that_ended():
     )
     c = RE.cell_stat(P, "her", [dict(training, seed=0), training], n_boot=20)
     assert T.per_seed_text(c) == "not yet (not yet – not yet), mean not yet, 0/2"
+
+
+def test_order_sentence_writes_ties_as_equal():
+    """Equal crossings are a tie ('='), not an order ('<')."""
+    a = cell("acder", [0.5, 1.0, 1.0, 1.0])
+    b = cell("acder-no-curiosity", [0.5, 1.0, 1.0, 1.0])
+    her = cell("her", [0.0, 0.5, 1.0, 1.0])
+    s = T.order_sentence([her, a, b])
+    assert s == "DDPG+ACDER 760 = ACDER w/o curiosity 760 < DDPG+HER 1,160", s
+
+
+def test_separated_sentence_names_the_ablations_the_rule_separates():
+    """Push: ACDER's seeds cross at 1.9 epochs, an ablation's at 3.9 (both seeds alike,
+    so each interval is its crossing): separated; another equal to ACDER: not. A task
+    whose ablations are not all finished is left out."""
+    acder = cell("acder", [0.5, 1.0, 1.0, 1.0])
+    slow = cell("acder-no-curiosity", [0.0, 0.0, 0.5, 1.0])
+    same = cell("acder-no-goal-factor", [0.5, 1.0, 1.0, 1.0])
+    also = cell("acder-no-start-states", [0.5, 1.0, 1.0, 1.0])
+    s = T.separated_sentence([acder, slow, same, also], tasks=(P,))
+    assert s == "On Push: ACDER w/o curiosity.", s
+    also.planned = 3  # a seed still to come
+    s = T.separated_sentence([acder, slow, same, also], tasks=(P,))
+    assert s == "No task has all its ablations finished yet."
+
+
+def test_seed_ratio_and_beside_paper_sentences():
+    her, acder = cell("her", [0.0, 0.5, 1.0, 1.0]), cell("acder", [0.5, 1.0, 1.0, 1.0])
+    (r,) = RE.ratios([her, acder], tasks=(P,))
+    assert T.seed_ratio_sentence([r]) == "on Push 1.5 and 1.5, against the paper's 5.3"
+    assert T.beside_paper_sentence([her, acder], tasks=(P,)) == (
+        "On Push, DDPG+HER 1,160 against the paper's 11,600 and DDPG+ACDER 760 against "
+        "its 2,200."
+    )
+    never = cell("acder", [0.0] * 4)
+    assert T.beside_paper_sentence([her, never], tasks=(P,)) == (
+        "No task has both crossings yet."
+    )
