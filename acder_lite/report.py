@@ -194,7 +194,13 @@ def crossings(x: np.ndarray, Y: np.ndarray, threshold: float) -> np.ndarray:
 def carry_forward(x, y, budget: float, n: int | None = None):
     """A curve stopped before `budget`, extended at its evaluation spacing with the mean
     of its last `n` values (default `CARRY_EVALUATIONS`, read at call time). Returns
-    (x, y, carried), carried True on the added points."""
+    (x, y, carried), carried True on the added points.
+
+    Trap: `n` must not exceed the stop rule's patience (`Config.stop_patience`, 5). A
+    stopped seed held the threshold at its last `patience` evaluations only, so a mean
+    over more of them takes in evaluations from before it got there and can carry a
+    level below the threshold: with n = 10 Push's HER and ACDER cells would never
+    cross."""
     n = CARRY_EVALUATIONS if n is None else n
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     carried = np.zeros(len(x), dtype=bool)
