@@ -65,3 +65,20 @@ def test_no_her_when_future_p_is_zero(episodes):
         episodes, 1000, 0.0, lambda a, g, i: np.zeros(len(a)), np.random.default_rng(2)
     )
     assert not b["her"].any() and np.all(b["g"] == -7.0)
+
+
+def test_given_indices_choose_the_transitions(episodes):
+    """Prioritised replay passes (episode, step) pairs: the rows are exactly those
+    transitions (their achieved goals encode where they came from), and a relabelled
+    row's goal still comes from a later step of its own episode."""
+    env = make_env("FetchReach-v4", seed=0)
+    ep, t = np.array([3, 7, 29, 3]), np.array([0, 49, 10, 48])
+    b = sample_her_transitions(
+        episodes, 4, 0.8, env.compute_reward, np.random.default_rng(0), ep, t
+    )
+    np.testing.assert_array_equal(b["ag"][:, :2], np.stack([ep, t], 1))
+    np.testing.assert_array_equal(b["ag2"][:, :2], np.stack([ep, t + 1], 1))
+    np.testing.assert_array_equal(b["ep"], ep)
+    np.testing.assert_array_equal(b["t"], t)
+    h = b["her"]
+    assert np.all(b["g"][h, 0] == ep[h]) and np.all(b["g"][h, 1] > t[h])

@@ -84,6 +84,41 @@ def test_loss_pi_by_hand():
     assert loss.item() == pytest.approx(-3 + np.tanh(0.5) ** 2, rel=1e-6)
 
 
+def test_loss_pi_reads_the_critic_at_the_actors_action():
+    """Eq. 3 with a critic that sees its action: Q(s, u) = u_1 + u_2 and pi = max_u
+    tanh(0.5) in both dims, so -mean Q = -2 max_u tanh(0.5) and the penalty on
+    pi / max_u is tanh(0.5)^2 whatever max_u: -0.71068 at max_u = 1, -1.63492 at 2. A
+    loss that read the stored actions `u` instead, or forgot to divide by max_u,
+    gives other numbers."""
+    b = batch()
+    for max_u, want in ((1.0, -0.71068), (2.0, -1.63492)):
+        actor = const_actor(0.5)
+        actor.max_u = max_u
+        loss = compute_loss_pi(actor, lambda x, u: u.sum(-1), b, action_l2=1.0)
+        assert loss.item() == pytest.approx(want, abs=1e-5)
+
+
+def test_loss_q_reads_the_next_state_and_the_target_actor():
+    """Eq. 2 with a target critic that sees its inputs: Q'(s', u') = s'_1 + u'_1 +
+    u'_2, the target actor's u' = (0.25, 0.25), s'_1 = 0, -1, -2, -3 and s = 0: y = r +
+    0.98 (s'_1 + 0.5) = -0.51, -0.49, -2.47, -3.45; Q = 2, so td = y - 2. A target read
+    at s instead of s', or at the stored action, gives other numbers."""
+    b = batch()
+    b["x"] = torch.zeros(4, 3)
+    b["x2"][:, 0] = torch.tensor([0.0, -1.0, -2.0, -3.0])
+    loss, td = compute_loss_q(
+        const_critic(2.0),
+        lambda x: torch.full((len(x), 2), 0.25),
+        lambda x, u: x[:, 0] + u.sum(-1),
+        b,
+        0.98,
+        (-50.0, 0.0),
+    )
+    y = np.array([-0.51, -0.49, -2.47, -3.45])
+    np.testing.assert_allclose(td.numpy(), y - 2, rtol=1e-6)
+    assert loss.item() == pytest.approx(np.mean((y - 2) ** 2), rel=1e-6)
+
+
 def test_actor_loss_does_not_train_the_critic():
     from acder_lite.config import Config
     from acder_lite.ddpg import DDPG
@@ -209,9 +244,18 @@ def test_polyak():
         p.data.fill_(1.0)
     for p in agent.actor_targ.parameters():
         p.data.fill_(0.0)
+    for p in agent.critic.parameters():
+        p.data.fill_(1.0)
+    for p in agent.critic_targ.parameters():
+        p.data.fill_(0.0)
     agent.update_targets()
-    for p in agent.actor_targ.parameters():
-        assert torch.allclose(p, torch.full_like(p, 0.05))
+    for targ in (agent.actor_targ, agent.critic_targ):  # both targets follow
+        for p in targ.parameters():
+            assert torch.allclose(p, torch.full_like(p, 0.05))
+    agent.update_targets()  # 1 - 0.95^2
+    for targ in (agent.actor_targ, agent.critic_targ):
+        for p in targ.parameters():
+            assert torch.allclose(p, torch.full_like(p, 0.0975))
 
 
 def test_sicm_step_loss_is_eq8_on_a_hand_worked_batch():

@@ -373,3 +373,17 @@ def test_the_books_pusher_and_random_counts():
     assert wins.dtype == bool and wins.shape == (3,) and wins.sum() >= 2
     a, b = M.random_counts(4, seed=0), M.random_counts(4, seed=0)
     assert a == b and a["episodes"] == 4 and 0 <= a["success"] <= a["one"] <= 1
+
+
+def test_block_distances_by_hand():
+    """Each block to its own target: block 1 at (0, 0, 0) against (3, 4, 0) is 5 away,
+    block 2 on its target is 0; batches keep their leading axes; other widths raise."""
+    ag = np.array([0.0, 0, 0, 1, 1, 1])
+    g = np.array([3.0, 4, 0, 1, 1, 1])
+    np.testing.assert_allclose(M.block_distances(ag, g), [5.0, 0.0])
+    batch = M.block_distances(np.stack([ag, g]), np.stack([g, g]))
+    np.testing.assert_allclose(batch, [[5.0, 0.0], [0.0, 0.0]])
+    with pytest.raises(ValueError, match=r"\(\.\.\., 6\)"):
+        M.block_distances(ag[:3], g[:3])
+    with pytest.raises(ValueError):
+        M.block_distances(ag, np.stack([g, g]))

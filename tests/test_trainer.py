@@ -110,7 +110,8 @@ def test_every_method_runs_and_logs_its_diagnostics(tmp_path, method):
     if sw["curiosity"] != "none":
         assert 0 < rows[-1]["r_int_mean"] <= tr.cfg.eta + 1e-6  # float32 clip
     if sw["goal_factor"]:
-        assert 1.0 <= rows[-1]["lambda_mean"] <= 1.5
+        # Eq. 6 on the relabelled rows: above 1 unless every action pointed at its goal
+        assert 1.0 < rows[-1]["lambda_mean"] <= 1.5
 
 
 def test_ebp_on_push_and_clip_range():
@@ -460,3 +461,35 @@ def test_candidate_success_reads_the_last_step_or_any_step():
     for rule in ("final", "any"):
         tr.cfg.candidate_success = rule
         assert tr.episode_success(ep).tolist() == want[rule]
+
+
+def test_explore_act_is_baselines_noise_then_random_actions():
+    """Trainer.explore_act (chapter 2): without noise or random actions it is the
+    policy's action; with random_eps = 1 every action is uniform in [-max_u, max_u] and
+    does not depend on the policy; Gaussian noise on a saturated policy is clipped to
+    max_u exactly; a share random_eps of the rows is random."""
+    import torch
+
+    def acts(**kw):
+        tr = Trainer(tiny_config(env="FetchPush-v4", **kw))
+        obs = tr.envs[0]._get_obs()
+        o = np.repeat(obs["observation"][None], 4000, 0)
+        g = np.repeat(obs["desired_goal"][None], 4000, 0)
+        return tr, o, g
+
+    tr, o, g = acts(noise_eps=0.0, random_eps=0.0)
+    np.testing.assert_array_equal(tr.explore_act(o, g), tr.policy(o, g))
+    tr, o, g = acts(random_eps=1.0)
+    state = tr.rng.bit_generator.state
+    u = tr.explore_act(o, g)
+    with torch.no_grad():
+        tr.policy.actor.net[-2].bias.fill_(100.0)  # another policy, saturated
+    tr.rng.bit_generator.state = state
+    np.testing.assert_array_equal(tr.explore_act(o, g), u)
+    assert np.abs(u).max() <= tr.max_u and u.std() > 0.5  # uniform on [-1, 1]: 0.577
+    tr.cfg.random_eps = 0.0
+    u = tr.explore_act(o, g)  # tanh(100) = 1 plus noise, clipped
+    assert u.max() == tr.max_u and (u == tr.max_u).mean() > 0.4  # half the noise > 0
+    tr, o, g = acts(noise_eps=0.0)  # Baselines' random_eps = 0.3
+    random_rows = (tr.explore_act(o, g) != tr.policy(o, g)).any(1)
+    assert 0.27 < random_rows.mean() < 0.33  # 0.3, sd 0.007 over 4,000 rows
