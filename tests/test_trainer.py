@@ -493,3 +493,25 @@ def test_explore_act_is_baselines_noise_then_random_actions():
     tr, o, g = acts(noise_eps=0.0)  # Baselines' random_eps = 0.3
     random_rows = (tr.explore_act(o, g) != tr.policy(o, g)).any(1)
     assert 0.27 < random_rows.mean() < 0.33  # 0.3, sd 0.007 over 4,000 rows
+
+
+def test_eq9_follows_the_latest_test_success(monkeypatch):
+    """Each evaluation's test success sets alpha (Eq. 9, alpha0 = 0.8, base 10e): 0
+    gives 0.8 - 0.5 / 27.18282 = 0.78161, 1 gives 0.3, 0.5 gives 0.8 - 0.5 / 5.21371 =
+    0.70410; the alpha column logs the value the next cycles draw with."""
+    tr = Trainer(
+        tiny_config(env="FetchPush-v4", method="acder", epochs=1, eval_every_cycles=1)
+    )
+    said = iter([0.0, 1.0, 0.5])
+
+    def scripted():
+        tr.diag["q_mean"] = 0.0
+        return next(said)
+
+    monkeypatch.setattr(tr, "evaluate", scripted)
+    rows = tr.train(False)
+    assert [r["test_success"] for r in rows] == [0.0, 1.0, 0.5]
+    np.testing.assert_allclose(
+        [r["alpha"] for r in rows], [0.78161, 0.3, 0.70410], atol=5e-6
+    )
+    assert tr.selector.alpha == pytest.approx(0.70410, abs=5e-6)
