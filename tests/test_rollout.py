@@ -144,3 +144,31 @@ def test_bench_matmul_rate_is_measured_in_the_updates_precision(monkeypatch):
         seen.clear()
         assert bench.matmul_gflops(1, m=64, k=32, n=32, seconds=0.01, dtype=dtype) > 0
         assert set(seen) == {(getattr(torch, dtype),) * 2}
+
+
+def test_run_episodes_records_what_the_envs_did():
+    """run_episodes against the envs' own rules, not against itself: success is the
+    env's reward of the last achieved goal (0 within 5 cm); an env given a stored start
+    is marked novel and begins from that state's observation; every stored state
+    restores the observation stored beside it."""
+    from acder_lite import envs as E
+    from acder_lite.rollout import run_episodes
+
+    envs = [E.make_env("FetchPush-v4", seed=s) for s in (0, 1, 2)]
+    rng = np.random.default_rng(0)
+
+    def act(o, g):
+        return rng.uniform(-1, 1, (len(o), 4)).astype(np.float32)
+
+    first = run_episodes(envs, act, 10)
+    stored = dict(state=first["state"][1, 7].copy(), goal=None)
+    ep = run_episodes(envs, act, 10, starts=lambda i: stored if i == 1 else None)
+    assert ep["novel"].tolist() == [False, True, False]
+    np.testing.assert_array_equal(ep["o"][1, 0], first["o"][1, 7])
+    for i, env in enumerate(envs):
+        r = env.unwrapped.compute_reward(ep["ag"][i, 10], ep["g"][i, 9], None)
+        assert ep["success"][i] == (r == 0)
+        for t in (0, 5, 10):
+            E.set_state(env, ep["state"][i, t])
+            o = env.unwrapped._get_obs()["observation"].astype(np.float32)
+            np.testing.assert_array_equal(o, ep["o"][i, t])  # stored as float32
