@@ -459,6 +459,13 @@ class Config:
         return max(1, self.threads // 2) if self.split else self.threads
 
     @property
+    def episodes_per_epoch(self) -> int:
+        """Training episodes an epoch: cycles x episodes_per_cycle x workers (400 under
+        the paper's protocol; 80 on Reach, whose epochs have 10 cycles). Resolve first:
+        a task preset may set the cycles."""
+        return self.cycles * self.episodes_per_cycle * self.workers
+
+    @property
     def future_p(self) -> float:
         return (
             1.0 - 1.0 / (1.0 + self.replay_k) if self.switches.get("her", True) else 0.0

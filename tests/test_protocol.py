@@ -46,6 +46,7 @@ def test_protocol_v2_defaults_per_task(env, epochs, cycles, threshold):
         cfg.updates_per_cycle,
         cfg.batch_size,
     ) == (4, 2, 40, 256)
+    assert cfg.episodes_per_epoch == cycles * 2 * 4  # 80 on Reach, 400 elsewhere
     assert (
         cfg.test_episodes == 20
     )  # n_test_rollouts=10 x rollout_batch_size=2, per worker
