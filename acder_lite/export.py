@@ -250,12 +250,14 @@ def trained_of(pol: dict, source: str = "") -> dict | None:
     """How far the policy's run had trained when the file was written: epochs,
     training episodes and the last evaluation's test success, with where that was
     read (`from`). A policy dict written since the trainer records it carries it
-    (`trained`); an older one is read from the `done.json` beside `source` (a finished
-    run's policy.pt and checkpoint.pt are its last epoch's); else None (unknown: an
-    older file of a run still training, or one moved out of its run folder)."""
+    (`trained`); an older one is read from the `done.json` beside `source` or in it (a
+    run folder; a finished run's policy.pt and checkpoint.pt are its last epoch's); else
+    None (unknown: an older file of a run still training, or one moved out of its run
+    folder)."""
     if isinstance(pol.get("trained"), dict):
         return dict(pol["trained"], **{"from": "the policy file"})
-    done = os.path.join(os.path.dirname(source), "done.json") if source else ""
+    folder = source if os.path.isdir(source) else os.path.dirname(source)
+    done = os.path.join(folder, "done.json") if source else ""
     if done and os.path.isfile(done):
         try:
             with open(done) as f:

@@ -187,6 +187,7 @@ def test_metadata_says_how_far_the_run_trained(tmp_path):
     from_done = trained_of(older, src)
     assert from_done["from"].startswith("done.json")
     assert {k: from_done[k] for k in want} == want
+    assert trained_of(older, str(run)) == from_done  # the run folder itself
     assert trained_of(older, str(tmp_path / "policy.pt")) is None  # no run folder
     (run / "done.json").write_text("{}")
     assert trained_of(older, src) is None  # a done.json of another shape: not guessed
