@@ -59,6 +59,7 @@ import json
 import os
 import re
 import warnings
+from pathlib import Path
 from typing import List
 
 import torch
@@ -254,23 +255,23 @@ def trained_of(pol: dict, source: str = "") -> dict | None:
     run folder; a finished run's policy.pt and checkpoint.pt are its last epoch's); else
     None (unknown: an older file of a run still training, or one moved out of its run
     folder)."""
+    from .runs import RunError, read_json
+
     if isinstance(pol.get("trained"), dict):
         return dict(pol["trained"], **{"from": "the policy file"})
+    if not source:
+        return None
     folder = source if os.path.isdir(source) else os.path.dirname(source)
-    done = os.path.join(folder, "done.json") if source else ""
-    if done and os.path.isfile(done):
-        try:
-            with open(done) as f:
-                d = json.load(f)
-            return {
-                "epochs": float(d["epochs"]),
-                "episodes": int(d["episodes"]),
-                "test_success": float(d["final_test_success"]),
-                "from": "done.json beside the policy file (the run had ended)",
-            }
-        except (OSError, ValueError, KeyError, TypeError):
-            return None  # a done.json of another shape: unknown, not guessed
-    return None
+    try:
+        d = read_json(Path(folder) / "done.json", "done.json")
+        return {
+            "epochs": float(d["epochs"]),
+            "episodes": int(d["episodes"]),
+            "test_success": float(d["final_test_success"]),
+            "from": "done.json beside the policy file (the run had ended)",
+        }
+    except (RunError, ValueError, KeyError, TypeError):
+        return None  # no done.json, or one of another shape: unknown, not guessed
 
 
 def trained_text(trained: dict | None) -> str:
