@@ -288,6 +288,12 @@ _TEXT_KEYS = ("root", "name", "queue", "hold", "note", "same_as")
 _NOT_IN_CONFIG = ("env", "method", "seed", "switches", "update_dtype_why", "device_why")
 
 
+def option_values(path: str | Path, key: str) -> list:
+    """The distinct values a plan file's cells set for the Config field `key` (a group's
+    `config`), sorted; [] where no cell sets it."""
+    return sorted({c.options[key] for c in read_plan(path) if key in c.options})
+
+
 def _check_group(g: dict) -> str | None:
     """A group's (or [defaults]') keys of the wrong type, a `name` that is not one
     folder, a `config` field it may not set: one line, or None."""

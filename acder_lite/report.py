@@ -109,6 +109,10 @@ SUCCESS_TOL = 1e-9
 """Slack when comparing a success rate with a threshold
 (a mean of ones may be 0.9999999999)."""
 
+CUT_WHY = "not before a seed's curve was cut"
+"""`CellStat.why` of a cell whose mean curve ends, uncrossed, where a seed's curve was
+cut before its budget (protocol v1)."""
+
 BOOTSTRAP_RESAMPLES = 2000
 """Resamples of the seeds per interval."""
 
@@ -608,7 +612,7 @@ def cell_stat(
             if reached_budget or not (c.unfinished or c.cut)
             else "not yet"
             if c.unfinished
-            else "not before a seed's curve was cut"
+            else CUT_WHY
         )
     return c
 

@@ -25,8 +25,10 @@ from .config import TASK_PRESETS, ConfigError
 from .report import (
     ABLATIONS,
     PAPER_EPISODES_PER_EPOCH,
+    PAPER_TABLE_I,
     TASKS,
     TAIL_EVALUATIONS,
+    CUT_WHY,
     CellStat,
     cell_on_seeds,
     RatioStat,
@@ -34,6 +36,7 @@ from .report import (
     column_tail,
     complete,
     grid_cells,
+    paper_epochs,
     ratios,
     seed_level,
     separated,
@@ -386,6 +389,45 @@ def and_join(items: list[str]) -> str:
     if not items:
         return "none"
     return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
+def count(n: int, noun: str) -> str:
+    """'1 seed', '3 seeds'."""
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
+def cut_texts(cells: list[CellStat]) -> tuple[str, str]:
+    """How many runs were cut before their budget and how many cells' mean curves end,
+    uncrossed, where one was (protocol v1): ('3 of its 20 runs', '1 of its 8 cells')."""
+    runs = f"{sum(c.cut for c in cells)} of its {count(sum(c.n for c in cells), 'run')}"
+    unread = sum(c.why == CUT_WHY for c in cells)
+    return runs, f"{unread} of its {count(len(cells), 'cell')}"
+
+
+def range_text(values) -> str:
+    """'3', '3 to 5' for the distinct values; 'none' for no values."""
+    v = sorted(set(values))
+    return "none" if not v else str(v[0]) if len(v) == 1 else f"{v[0]} to {v[-1]}"
+
+
+def paper_epochs_texts(env: str, episodes_per_epoch: float, budget: float) -> dict:
+    """Table I's numbers on `env` in epochs (`report.paper_epochs`), as the book's
+    texts: `fractional`, the numbers that are no whole number of the paper's epochs of
+    400 episodes ('HER 1,000 (2.5 epochs)'); `in_ours`, every number in our epochs of
+    `episodes_per_epoch` ('12.5, 5 and 15'); `over`, how many of those lie past
+    `budget` epochs."""
+    odd = {m: e for m, e in paper_epochs(env).items() if e != int(e)}
+    ours = paper_epochs(env, episodes_per_epoch).values()
+    return dict(
+        fractional=and_join(
+            [
+                f"{label(m)} {PAPER_TABLE_I[m][env]:,} ({e:g} epochs)"
+                for m, e in odd.items()
+            ]
+        ),
+        in_ours=and_join([f"{e:g}" for e in ours]),
+        over=str(sum(e > budget for e in ours)),
+    )
 
 
 def copies_sentence(runs: list[dict], root: str | Path | None = None) -> str:

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from acder_lite import sweep as S
-from acder_lite.plan import PlanError, plan, read_plan
+from acder_lite.plan import PlanError, option_values, plan, read_plan
 from conftest import stop_tree
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -492,6 +492,10 @@ def test_read_plan(tmp_path):
         and cmd[cmd.index("--method") + 1] == "acder"
     )
     assert cmd[cmd.index("--out") + 1] == str(cells[0].out)
+    # every cell sets update_dtype (defaults); only the readings' group sets sicm_input
+    assert option_values(path, "update_dtype") == ["float32"]
+    assert option_values(path, "sicm_input") == ["raw"]
+    assert option_values(path, "reward_bonus") == []
 
 
 @pytest.mark.parametrize(

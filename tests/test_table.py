@@ -959,3 +959,39 @@ def test_seed_ratio_and_beside_paper_sentences():
     assert T.beside_paper_sentence([her, never], tasks=(P,)) == (
         "No task has both crossings yet."
     )
+
+
+def test_count_and_range_text():
+    assert [T.count(n, "seed") for n in (0, 1, 3)] == ["0 seeds", "1 seed", "3 seeds"]
+    assert T.range_text([5, 3, 5, 3]) == "3 to 5"
+    assert T.range_text([3, 3]) == "3" and T.range_text([]) == "none"
+
+
+def test_cut_texts_counts_runs_and_the_cells_a_cut_leaves_unread():
+    """Protocol v1: 2 of 5 runs cut; one cell uncrossed because of a cut, one not yet,
+    one read."""
+    make = lambda n, cut, why: RE.CellStat(
+        "FetchPush-v4", "x", "her", 0.95, n=n, cut=cut, why=why
+    )
+    cells = [make(2, 2, RE.CUT_WHY), make(2, 0, "not yet"), make(1, 0, "")]
+    assert T.cut_texts(cells) == ("2 of its 5 runs", "1 of its 3 cells")
+    assert T.cut_texts([make(1, 0, "")]) == ("0 of its 1 run", "0 of its 1 cell")
+
+
+def test_paper_epochs_texts_reach_by_hand():
+    """Table I's Reach: HER 2,240 = 5.6 epochs of 400 and PER 1,440 = 3.6 are not whole;
+    ICM 2,400 = 6 and ACDER 400 = 1 are. In epochs of 80 episodes: 28, 30, 18, 5, of
+    which 28 and 30 lie past a budget of 25."""
+    t = T.paper_epochs_texts("FetchReach-v4", 80, 25)
+    assert t["fractional"] == (
+        "DDPG+HER 2,240 (5.6 epochs) and DDPG+HER+PER 1,440 (3.6 epochs)"
+    )
+    assert t["in_ours"] == "28, 30, 18 and 5"
+    assert t["over"] == "2"
+    push = T.paper_epochs_texts("FetchPush-v4", 400, 50)  # 29, 24.5, 19.5, 18, 5.5
+    assert push["fractional"].startswith("DDPG+HER+ICM 9,800 (24.5 epochs), ")
+    assert push["over"] == "0"
+    assert (
+        T.paper_epochs_texts("FetchPush-v4", 200, 50)["in_ours"]
+        == "58, 49, 39, 36 and 11"
+    )
