@@ -169,7 +169,9 @@ def interval_text(c: CellStat) -> str:
             return "cut short"
         return episodes(c.paper_units(x))  # Table I's unit
 
-    return f"{bound(c.low)} – {bound(c.high)} ({c.share_crossing:.0%})"
+    low, high = bound(c.low), bound(c.high)
+    # "not yet – not yet" says one thing twice: no resample has crossed yet
+    return f"{low if low == high else f'{low} – {high}'} ({c.share_crossing:.0%})"
 
 
 def per_seed_text(c: CellStat) -> str:
@@ -177,19 +179,22 @@ def per_seed_text(c: CellStat) -> str:
         return "–"
     # a seed still training may cross; one that ended without crossing never will,
     # and then the slowest seed and the mean are "not crossed" for good
-    settled = not c.unfinished or any(
-        x is None and e for x, e in zip(c.seed_crossings, c.seed_ended)
-    )
+    never = sum(x is None and e for x, e in zip(c.seed_crossings, c.seed_ended))
+    settled = not c.unfinished or never > 0
+    # the median (np.median: the upper middle value counts) is inf for good once
+    # that many seeds ended uncrossed
+    median_settled = not c.unfinished or never >= c.n - c.n // 2
 
     def one(x, final=not c.unfinished):
         if x is None or math.isinf(x):
             return "not crossed" if final else "not yet"
         return episodes(c.paper_units(x))
 
-    if c.n == 1:
-        return f"{one(c.seed_median)}, {c.k}/1"
+    median = one(c.seed_median, median_settled)
+    if c.n == 1 or c.k == 0:  # one value, or none crossed: the median says it all
+        return f"{median}, {c.k}/{c.n}"
     return (
-        f"{one(c.seed_median)} ({one(c.seed_low)} – {one(c.seed_high, settled)}), "
+        f"{median} ({one(c.seed_low)} – {one(c.seed_high, settled)}), "
         f"mean {one(c.seed_mean, settled)}, {c.k}/{c.n}"
     )
 

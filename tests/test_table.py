@@ -634,9 +634,11 @@ def test_interval_bound_that_may_still_cross_says_not_yet():
     c.unfinished = 1
     assert T.interval_text(c) == "4,000 – not yet (50%)"
     c.low = math.inf
-    assert T.interval_text(c) == "not yet – not yet (50%)"
+    assert T.interval_text(c) == "not yet (50%)"  # once, not "not yet – not yet"
     c.unfinished, c.cut = 0, 1
-    assert T.interval_text(c) == "cut short – cut short (50%)"
+    assert T.interval_text(c) == "cut short (50%)"
+    c.high = 12.0
+    assert T.interval_text(c) == "cut short – 4,800 (50%)"
 
 
 def test_bonus_sentence_averages_each_seeds_last_evaluations():
@@ -903,7 +905,9 @@ def test_ablation_sentence_reads_acder_on_the_ablations_seeds():
 
 def test_per_seed_column_says_not_crossed_for_a_seed_that_ended():
     """Seed 0 ended at its budget without crossing, seed 1 is still training: the
-    slowest seed and the mean are 'not crossed' for good, the median 'not yet'."""
+    slowest seed and the mean are 'not crossed' for good, and so is the median of two
+    (np.median counts the upper middle value). With no seed crossed, the column says so
+    once."""
     rows = [dict(epoch=float(i), episodes=400.0 * i, test_success=0.1) for i in (1, 2)]
     r = dict(
         env=P,
@@ -916,11 +920,22 @@ def test_per_seed_column_says_not_crossed_for_a_seed_that_ended():
     )
     ended, training = dict(r, seed=0, ended="budget"), dict(r, seed=1, ended=None)
     c = RE.cell_stat(P, "her", [ended, training], n_boot=20)
-    assert (
-        T.per_seed_text(c) == "not yet (not yet – not crossed), mean not crossed, 0/2"
-    )
+    assert T.per_seed_text(c) == "not crossed, 0/2"  # of 2, one never: the median
     c = RE.cell_stat(P, "her", [dict(training, seed=0), training], n_boot=20)
-    assert T.per_seed_text(c) == "not yet (not yet – not yet), mean not yet, 0/2"
+    assert T.per_seed_text(c) == "not yet, 0/2"
+    c = RE.cell_stat(P, "her", [ended, dict(ended, seed=1)], n_boot=20)
+    assert T.per_seed_text(c) == "not crossed, 0/2"
+    up = [dict(epoch=1.0, episodes=400.0, test_success=1.0)] * 2
+    c = RE.cell_stat(P, "her", [ended, dict(training, rows=up)], n_boot=20)
+    # the median of (400, never) is never, for good: the ended seed will not cross
+    assert (
+        T.per_seed_text(c) == "not crossed (400 – not crossed), mean not crossed, 1/2"
+    )
+    three = [dict(training, seed=2), dict(training, seed=3, rows=up)]
+    c = RE.cell_stat(P, "her", [ended] + three, n_boot=20)  # never, (training), 400
+    assert T.per_seed_text(c).startswith("not yet (400 – not crossed)")
+    c = RE.cell_stat(P, "her", [ended, dict(ended, seed=1), three[1]], n_boot=20)
+    assert T.per_seed_text(c).startswith("not crossed (400 – not crossed)")
 
 
 def test_order_sentence_writes_ties_as_equal():
