@@ -564,7 +564,8 @@ def reading(label: str, result: dict | None) -> str:
     name = label.replace(" ", "-")
     if result is None:
         return f"the {name} policy is not trained yet"
-    nom, low = result["rows"][0], weakest(result)
+    nom = next(r for r in result["rows"] if r["nominal"])  # not always the first row
+    low = weakest(result)
     head = (
         f"the {name} policy succeeds in {nom['successes']} of {nom['trials']} trials "
         "unperturbed"

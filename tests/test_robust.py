@@ -104,6 +104,18 @@ def test_side_by_side_puts_benches_in_columns():
         assert f"in {low['successes']} at its weakest, `action_delay` = 2 steps" in text
     else:
         assert text.endswith("as often at every perturbed level")
+    # the nominal row found by its flag: with action_scale alone, 0.8x comes first
+    hand = dict(
+        rows=[
+            dict(knob="action_scale", level=0.8, unit="x", nominal=False, successes=1),
+            dict(knob="action_scale", level=1.0, unit="x", nominal=True, successes=3),
+        ]
+    )
+    hand["rows"][1]["trials"] = 3
+    assert reading("p", hand) == (
+        "the p policy succeeds in 3 of 3 trials unperturbed and in 1 at its weakest, "
+        "`action_scale` = 0.8 x"
+    )
 
 
 def test_wilson_interval_hand_worked():
