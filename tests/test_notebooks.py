@@ -71,3 +71,33 @@ def test_every_glued_reference_is_glued(path):
         }
     )
     assert not missing, f"referenced but never glued: {missing}"
+
+
+@pytest.mark.parametrize("path", CHAPTERS, ids=os.path.basename)
+def test_every_saved_scene_is_shown(path):
+    """`viz.show_scene(name)` returns the scene's iframe; only a cell's last top-level
+    expression is displayed, so inside an `if` (or mid-cell) it must be wrapped in
+    `display(...)`, or the reader gets no 3D scene (chapter 10's did, once). And every
+    scene a chapter saves is one it shows."""
+    import ast
+
+    saved, shown = set(), set()
+    for i, c in code_cells(path):
+        tree = ast.parse("".join(c["source"]))
+        last = tree.body[-1] if tree.body else None
+        for node in ast.walk(tree):
+            attr = getattr(getattr(node, "func", None), "attr", "")
+            if attr == "save_scene":  # save_scene(scene, name)
+                saved.add(ast.unparse(node.args[1]))
+            if attr != "show_scene":
+                continue
+            name = ast.unparse(node.args[0])
+            bare = isinstance(last, ast.Expr) and last.value is node
+            wrapped = any(
+                isinstance(p, ast.Call) and getattr(p.func, "id", "") == "display"
+                and node in p.args
+                for p in ast.walk(tree)
+            )  # fmt: skip
+            assert bare or wrapped, f"cell {i}: show_scene({name}) is never displayed"
+            shown.add(name)
+    assert saved <= shown, f"scenes saved but not shown: {sorted(saved - shown)}"
