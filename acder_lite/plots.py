@@ -17,7 +17,7 @@ import numpy as np
 
 from . import report
 from .config import OBJECT_ENVS, TASK_PRESETS
-from .table import METHOD_LABELS, TASK_LABELS
+from .table import METHOD_LABELS, TASK_LABELS, count
 
 COLORS = {
     "her": "C0",
@@ -113,7 +113,7 @@ def plot_mean_curves(
             continue
         m = report.learning_curves(rs)[(env, name)]
         done = sum(r["ended"] is not None for r in rs)
-        label = f"{labels.get(name, name)} ({len(rs)} seed{'s' if len(rs) > 1 else ''})"
+        label = f"{labels.get(name, name)} ({count(len(rs), 'seed')})"
         hit = draw_mean(ax, m, threshold, colors.get(name), label)
         ok = ~np.isnan(m.mean)
         reach = (
@@ -122,7 +122,7 @@ def plot_mean_curves(
             else "no evaluation of every seed yet"
         )
         cross = "" if hit is None else f", first at {threshold:.0%} at epoch {hit:.2f}"
-        status[name] = f"{len(rs)} seed(s), {done} done, {reach}{cross}"
+        status[name] = f"{count(len(rs), 'seed')}, {done} done, {reach}{cross}"
     return status
 
 

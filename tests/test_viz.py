@@ -204,3 +204,37 @@ def test_episode_stats_on_hand_made_episodes():
     assert s["any_step"].tolist() == [True, True, True]
     assert s["moved"].tolist() == [False, True, True]
     env.close()
+
+
+def test_plot_mean_curves_reads_the_mean_curve_and_says_its_status():
+    """Two Push seeds at 0.5, 0.9, 1.0 and 0.7, 0.9, 1.0: mean 0.6, 0.9, 1.0, which
+    reaches 0.95 halfway between epochs 2 and 3 (2.5). One seed has ended, one trains.
+    The legend counts seeds; a method without runs is 'not run yet'."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from acder_lite.plots import plot_mean_curves
+
+    def run(seed, values, ended):
+        rows = [
+            dict(epoch=float(e), episodes=400.0 * e, test_success=v)
+            for e, v in enumerate(values, 1)
+        ]
+        return dict(env="FetchPush-v4", name="her", seed=seed, rows=rows, ended=ended,
+                    budget_epochs=50.0, episodes_per_epoch=400.0)  # fmt: skip
+
+    runs = [run(0, [0.5, 0.9, 1.0], "budget"), run(1, [0.7, 0.9, 1.0], None)]
+    fig, ax = plt.subplots()
+    status = plot_mean_curves(ax, runs, "FetchPush-v4", ["her", "acder"])
+    assert status == {
+        "her": "2 seeds, 1 done, mean curve to epoch 3, first at 95% at epoch 2.50",
+        "acder": "not run yet",
+    }
+    line = ax.get_lines()[0]
+    assert line.get_label() == "DDPG+HER (2 seeds)"
+    np.testing.assert_allclose(line.get_ydata(), [0.6, 0.9, 1.0])
+    status = plot_mean_curves(ax, runs[:1], "FetchPush-v4", ["her"])
+    assert status["her"].startswith("1 seed, 1 done, mean curve to epoch 3")
+    plt.close(fig)
