@@ -701,8 +701,9 @@ def ratio_stat(her: CellStat | None, acder: CellStat | None) -> RatioStat:
     Reach episode count does not matter)."""
     env = (her or acder).env
     r = RatioStat(env, None, paper=paper_ratio(env))
-    if her is None or acder is None or not her.n or not acder.n:
-        r.why = "not run yet"
+    missing = [k for k, c in (("HER", her), ("ACDER", acder)) if c is None or not c.n]
+    if missing:  # say which: "ACDER not run yet" while HER's seeds train
+        r.why = f"{' and '.join(missing)} not run yet"
         return r
     r.ours = ratio_of(her.crossing, acder.crossing)
     r.seed_ratio = ratio_of(her.seed_median, acder.seed_median)

@@ -143,7 +143,7 @@ def mean_text(c: CellStat) -> str:
         text += ")"
     elif c.why == "not within budget" and c.budget_epochs:
         text = f"not within budget ({c.budget_epochs:g} epochs)"
-    elif c.why.startswith("not before") and c.evaluated_epochs is not None:
+    elif c.why == CUT_WHY and c.evaluated_epochs is not None:
         text = f"{c.why} (epoch {c.evaluated_epochs:g})"
     else:
         text = c.why

@@ -181,7 +181,10 @@ def test_ratio_from_the_mean_curves():
         and r.bound == pytest.approx(10 / 2.875)
         and r.why == "HER not within budget"
     )
-    assert R.ratio_stat(None, acder).why == "not run yet"
+    assert R.ratio_stat(None, acder).why == "HER not run yet"
+    # HER's seeds train while ACDER has none: the reason names ACDER
+    unrun = R.cell_stat("FetchPush-v4", "acder", [], planned=dict(seeds=3, hold=""))
+    assert R.ratio_stat(her, unrun).why == "ACDER not run yet"
 
 
 def test_bootstrap_is_deterministic_and_per_cell():
