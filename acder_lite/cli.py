@@ -14,6 +14,7 @@ import sys
 
 from .config import Config, ConfigError, field_docs
 from .io import CheckpointError
+from .words import plural
 
 # Config fields that are not command-line options.
 _NOT_OPTIONS = {"switches", "update_dtype_why", "device_why"}
@@ -49,9 +50,50 @@ COMMANDS = {
 
 
 class _Parser(argparse.ArgumentParser):
-    # one line, exit 2 (argparse would print the usage block too)
+    """No abbreviated options (`--epoch 2` once silently meant --epochs), and a bad
+    command line is one line naming the command, exit 2 (argparse would print the usage
+    block too)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs["allow_abbrev"] = False
+        super().__init__(*args, **kwargs)
+
     def error(self, message):
         raise UsageError(f"{self.prog}: {message}")
+
+    def parse_args(self, args=None, namespace=None):
+        # argparse reports a subcommand's unknown options from the top parser, under
+        # its name: say which command's they are, and the option meant if one is close
+        ns, extras = self.parse_known_args(args, namespace)
+        if extras:
+            raise UsageError(_unrecognized(self, ns, extras))
+        return ns
+
+
+def _unrecognized(parser: argparse.ArgumentParser, ns, extras: list[str]) -> str:
+    """One line: the command whose arguments `extras` are not, and for each unknown
+    option a close one it has ("did you mean --epochs?")."""
+    import difflib
+
+    prog = parser.prog
+    for a in parser._actions:
+        if isinstance(a, argparse._SubParsersAction) and getattr(ns, a.dest, None):
+            parser = a.choices[getattr(ns, a.dest)]
+            prog = parser.prog
+    # compared without the leading "--", which every option shares (`--bogus` is not
+    # close to `--out`)
+    names = [o[2:] for a in parser._actions for o in a.option_strings if o[:2] == "--"]
+    hints = []
+    for x in extras:
+        flag = x.split("=", 1)[0]
+        if flag.startswith("--"):
+            close = difflib.get_close_matches(flag[2:], names, n=1)
+            if close and "--" + close[0] not in hints:
+                hints.append("--" + close[0])
+    line = f"{prog}: unrecognized arguments: {' '.join(extras)}"
+    if hints:
+        line += "; did you mean " + " or ".join(hints) + "?"
+    return line
 
 
 def _field_type(f: dataclasses.Field):
@@ -119,6 +161,7 @@ def cmd_train(args) -> int:
             "other; allowed: --out DIR for a new run, or --resume DIR to continue one"
         )
     if args.resume:
+        _check_resume_folder(args.resume)
         _check_run_json(args.resume)  # before training: it is rewritten at the start
         ckpt_path = os.path.join(args.resume, "checkpoint.pt")
         ckpt = load_torch(ckpt_path) if os.path.exists(ckpt_path) else None
@@ -160,6 +203,10 @@ def cmd_train(args) -> int:
                     f"a resumed run may change only: {', '.join(sorted(_RESUMABLE))}"
                 )
         out = args.resume
+        ended = _resume_budget(out, ckpt, cfg)
+        if ended:  # not an error, and no file is rewritten
+            print(ended)
+            return 0
         trainer = Trainer(cfg, out, command=_command_line(args.argv))
         try:
             trainer.load_state_dict(ckpt)
@@ -234,6 +281,77 @@ def cmd_train(args) -> int:
         f"test_success={last.get('test_success', float('nan')):.3f}"
     )
     return 0
+
+
+def _check_resume_folder(run: str) -> None:
+    """--resume takes a run folder: a file (its policy.pt, checkpoint.pt) or a path
+    that is not there is refused in one line."""
+    if os.path.isfile(run):
+        raise UsageError(
+            f"train: --resume {run!r} is a file; allowed: the run folder "
+            f"({os.path.dirname(run) or '.'!r}, where train wrote it)"
+        )
+    if not os.path.exists(run):
+        raise UsageError(
+            f"train: --resume {run!r} does not exist; allowed: the folder of a run "
+            "train has saved a checkpoint in"
+        )
+
+
+_STOP_FIELDS = ("epochs", "success_threshold", "stop_patience", "stop_gap_episodes")
+"""The resumable fields that decide when a run ends."""
+
+
+def _resume_budget(run: str, ckpt: dict, cfg: Config) -> str | None:
+    """Check a resume's --epochs against how far the run has trained (ConfigError: a
+    budget below it once silently ended the run there), and say when the run has ended
+    (done.json) and this resume would train nothing: the line to print (else None).
+
+    A run that ended on its budget trains on with a larger --epochs; one that stopped
+    early (its checkpoint says done) trains on once an option of its stop rule or its
+    budget changes (`Trainer.train` then stops by the new rule)."""
+    import json
+    import math
+
+    old = Config.from_dict(dict(ckpt["config"]))
+    progress = ckpt["progress"]
+    cycle = progress["cycle"]
+    trained = cycle / cfg.cycles
+    least = math.ceil(trained - 1e-9)
+    if cfg.epochs * cfg.cycles < cycle:
+        raise ConfigError(
+            f"train: --epochs {cfg.epochs} is not allowed: {run} has trained "
+            f"{trained:g} {plural(trained, 'epoch')}; allowed: --epochs >= {least}"
+        )
+    done_path = os.path.join(run, "done.json")
+    if not os.path.isfile(done_path):
+        return None  # not ended (or killed before done.json: train writes it)
+    changed = any(getattr(cfg, k) != getattr(old, k) for k in _STOP_FIELDS)
+    early = bool(progress.get("done")) and cycle < old.epochs * old.cycles
+    if cycle < cfg.epochs * cfg.cycles and (not early or changed):
+        return None  # extended: trains on
+    try:
+        with open(done_path, encoding="utf-8") as f:
+            reason = json.load(f).get("stop_reason")
+    except (OSError, UnicodeDecodeError, ValueError, AttributeError):
+        reason = None
+    reason = (
+        reason
+        or progress.get("stop_reason")
+        or ("stopped early" if early else "budget")
+    )
+    longer = f"--epochs N with N > {trained:g}"
+    further = f"--resume {run} " + (
+        "with a stop rule it has not met (e.g. --stop-patience 0 "
+        "--stop-gap-episodes 0: none)"
+        + (f" and {longer}" if cycle >= cfg.epochs * cfg.cycles else "")
+        if early
+        else longer
+    )
+    return (
+        f"train: {run} has already ended ({reason}, epoch {trained:g}); nothing to "
+        f"do; to train it further: {further}"
+    )
 
 
 def _drop_unsaved_run(out: str) -> list[str]:
@@ -393,13 +511,24 @@ def build_parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser("eval", help=COMMANDS["eval"], description=COMMANDS["eval"])
     e.add_argument("--checkpoint", required=True, help="checkpoint.pt or policy.pt")
-    e.add_argument("--episodes", type=int, default=10)
+    e.add_argument(
+        "--episodes",
+        type=int,
+        default=10,
+        help="deterministic test episodes to run (default: 10)",
+    )
     e.add_argument(
         "--env",
         default=None,
         help="must match the checkpoint's env (default: the checkpoint's)",
     )
-    e.add_argument("--seed", type=int, default=12345)
+    e.add_argument(
+        "--seed",
+        type=int,
+        default=12345,
+        help="seed of the test episodes' goals and starts, an integer >= 0 "
+        "(default: 12345)",
+    )
     e.set_defaults(func=cmd_eval)
 
     b = sub.add_parser("bench", help=COMMANDS["bench"], description=COMMANDS["bench"])

@@ -519,9 +519,11 @@ class Config:
                 continue
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 bad(name, "an integer >= 1")
+        # 0 test episodes: every evaluation a NaN (progress.csv, done.json, export)
+        if not isinstance(self.test_episodes, int) or self.test_episodes < 1:
+            bad("test_episodes", "an integer >= 1 (each evaluation's episodes)")
         for name in (
             "updates_per_cycle",
-            "test_episodes",
             "eval_every_cycles",
             "replay_k",
             "stop_patience",

@@ -70,6 +70,7 @@ from .config import ConfigError
 from .io import atomic_write
 from .observations import indices, policy_env, policy_obs
 from .rollout import Policy
+from .words import count, plural
 
 # No `from __future__ import annotations` in this module: TorchScript reads
 # DeployedPolicy's class annotations (List[str]) as types, and cannot resolve them from
@@ -279,7 +280,8 @@ def trained_text(trained: dict | None) -> str:
     if trained is None:
         return "how far its run had trained is not recorded"
     ts = trained.get("test_success")
-    return f"trained {trained['epochs']:g} epochs, {trained['episodes']:,} episodes" + (
+    ep, n = trained["epochs"], trained["episodes"]
+    return f"trained {ep:g} {plural(ep, 'epoch')}, {count(n, 'episode')}" + (
         "" if ts is None else f", test success {ts:.2f} at its last evaluation"
     )
 

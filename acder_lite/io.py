@@ -57,7 +57,11 @@ def check_output(
     """Raise ConfigError (one line naming `option`) unless a command may write its
     output `path` (checked before any work): not empty, not a folder, no file where a
     folder above it should be, not one of the command's `inputs`, not a run's own file
-    (`RUN_FILES`), and (overwrite=False) not there yet. Nothing is created."""
+    (`RUN_FILES`), (overwrite=False) not there yet, and a file can be made where it
+    goes: a temporary file in its folder, or in the nearest folder above it that
+    exists, made and removed at once (`write_error` if not). Trap: os.access says yes
+    to root in a folder such as /proc, where no file can be made. The output itself is
+    still written atomically, after the work."""
     from .config import ConfigError
 
     def bad(what, allowed="another file"):
@@ -79,6 +83,13 @@ def check_output(
             bad("would overwrite a run's file", "a file outside the run's files")
         if not overwrite:
             bad("already exists", "a file not yet there (nothing is overwritten)")
+    folder = next(f for f in folders_above(path) if os.path.isdir(f))
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".probe.", suffix=".tmp", dir=folder)
+    except OSError as e:
+        raise write_error(option, path, e) from None
+    os.close(fd)
+    os.unlink(tmp)
 
 
 def folders_above(path: str) -> list[str]:
@@ -303,6 +314,10 @@ def load_torch(path: str) -> dict:
             f"checkpoint {path!r} is truncated or not a checkpoint (not the zip "
             f"archive torch.save writes); {ALLOWED}"
         )
+    if _is_torchscript(path):
+        raise CheckpointError(
+            f"checkpoint {path!r} is a TorchScript file written by export; {ALLOWED}"
+        )
     try:
         with (
             warnings.catch_warnings(),
@@ -342,6 +357,22 @@ def load_torch(path: str) -> dict:
                 f"{', '.join(missing)} ({ALLOWED})"
             )
     return obj
+
+
+def _is_torchscript(path: str) -> bool:
+    """Whether the zip at `path` is a TorchScript archive (torch.jit.save, as `export`
+    writes it): its records, under one top folder, hold constants.pkl and a code/
+    folder, which torch.save never writes (torch.load tells the two apart the same
+    way)."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            names = z.namelist()
+    except (OSError, zipfile.BadZipFile, ValueError):
+        return False  # torch.load's error says what is wrong with it
+    parts = [n.split("/") for n in names]
+    return any(p[1:] == ["constants.pkl"] for p in parts) and any(
+        len(p) > 2 and p[1] == "code" for p in parts
+    )
 
 
 def _keys(d: dict, most: int = 6) -> str:

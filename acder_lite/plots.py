@@ -17,7 +17,8 @@ import numpy as np
 
 from . import report
 from .config import OBJECT_ENVS, TASK_PRESETS
-from .table import METHOD_LABELS, TASK_LABELS, count
+from .table import METHOD_LABELS, TASK_LABELS
+from .words import count
 
 COLORS = {
     "her": "C0",

@@ -51,7 +51,11 @@ def one_line_error(p, *needles):
         (["--stop-patience", "-1"], ["stop_patience", ">= 0"]),
         (["--method", "acder-baselines-clip"], ["method", "acder"]),
         (["--method", "her-ebp"], ["her-ebp", "object", "FetchPush-v4"]),
-        (["--no-such-option", "1"], ["unrecognized", "--no-such-option"]),
+        (["--no-such-option", "1"], ["train: unrecognized", "--no-such-option"]),
+        # abbreviations: --epoch once silently meant --epochs
+        (["--epoch", "2"], ["train: unrecognized", "did you mean --epochs?"]),
+        (["--epcohs", "2"], ["train: unrecognized", "--epcohs", "mean --epochs?"]),
+        (["--test-episodes", "0"], ["test_episodes=0", "an integer >= 1"]),
         (["--compile-update=yes"], ["--compile-update", "ignored explicit argument"]),
         (["--reward-bonus", "2"], ["reward_bonus=2.0", "[-1, 1]"]),
         (["--reward-bonus", "nan"], ["reward_bonus=nan", "[-1, 1]"]),
@@ -430,3 +434,92 @@ def test_every_documented_command_parses():
             pytest.fail(f"{where}: python -m acder_lite {' '.join(argv)}: {e}")
         if args.cmd == "train" and not args.resume:
             Config(**given_options(args)).resolve()
+
+
+def test_no_command_takes_an_abbreviated_option(cli):
+    """Every parser refuses abbreviations (`--epoch 2` once meant --epochs); an unknown
+    option names its command, with the close one if there is one."""
+    import argparse
+
+    from acder_lite.cli import build_parser
+
+    parser = build_parser()
+    (sub,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    assert not parser.allow_abbrev
+    assert all(not s.allow_abbrev for s in sub.choices.values())
+    line = one_line_error(cli("eval", "--checkpoint", "x.pt", "--episode", "3"))
+    assert line.endswith(
+        "python -m acder_lite eval: unrecognized arguments: --episode 3; "
+        "did you mean --episodes?"
+    ), line
+    line = one_line_error(cli("table", "--zzzzzz"), "table: unrecognized", "--zzzzzz")
+    assert "did you mean" not in line
+
+
+def test_eval_help_gives_the_defaults(capsys):
+    from acder_lite.cli import build_parser
+
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["eval", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "test episodes to run (default: 10)" in out
+    assert "(default: 12345)" in out
+
+
+def test_resume_of_an_ended_run(cli, tmp_path):
+    """--resume on a run that has ended: one line on stdout, exit 0, no file rewritten
+    (no progress bar either); a budget below the epochs trained is refused (it once
+    silently ended the run there); a file is not a run folder; a larger --epochs, or
+    for a run stopped early another stop rule, trains on."""
+    import json
+    import shutil
+
+    from acder_lite.io import load_torch, save_torch
+
+    out = tmp_path / "run"
+    p = cli(
+        "train", "--env", "FetchReach-v4", "--epochs", "2", *TINY, "--out", str(out)
+    )
+    assert p.returncode == 0, p.stderr
+    before = {f: (out / f).read_bytes() for f in _files(out)}
+    p = cli("train", "--resume", str(out))  # no --quiet: no stray progress bar
+    assert p.returncode == 0 and p.stderr == "", p.stderr
+    assert p.stdout.strip().splitlines() == [
+        f"train: {out} has already ended (budget, epoch 2); nothing to do; to train "
+        f"it further: --resume {out} --epochs N with N > 2"
+    ], p.stdout
+    for epochs in ("1", "0"):
+        p = cli("train", "--resume", str(out), "--epochs", epochs)
+        one_line_error(p, f"--epochs {epochs}", "trained 2 epochs", "--epochs >= 2")
+    p = cli("train", "--resume", str(out / "policy.pt"))
+    one_line_error(p, "--resume", "is a file", "allowed: the run folder")
+    one_line_error(cli("train", "--resume", str(tmp_path / "nope")), "does not exist")
+    assert {f: (out / f).read_bytes() for f in _files(out)} == before
+    # a run stopped at epoch 2 of 4 (no done.json): --epochs 1 would have ended it
+    unfinished = tmp_path / "unfinished"
+    shutil.copytree(out, unfinished)
+    (unfinished / "done.json").unlink()
+    files = {f: (unfinished / f).read_bytes() for f in _files(unfinished)}
+    p = cli("train", "--resume", str(unfinished), "--epochs", "1", "--quiet")
+    one_line_error(p, "has trained 2 epochs", "--epochs >= 2")
+    assert {f: (unfinished / f).read_bytes() for f in _files(unfinished)} == files
+    # a run that stopped early (success held at epoch 2 of 3)
+    early = tmp_path / "early"
+    shutil.copytree(out, early)
+    ckpt = load_torch(str(early / "checkpoint.pt"))
+    ckpt["config"]["epochs"] = 3
+    ckpt["progress"].update(done=True, stop_reason="success held")
+    save_torch(str(early / "checkpoint.pt"), ckpt)
+    done = json.loads((early / "done.json").read_text())
+    (early / "done.json").write_text(json.dumps(dict(done, stop_reason="success held")))
+    files = {f: (early / f).read_bytes() for f in _files(early)}
+    p = cli("train", "--resume", str(early), "--quiet")
+    assert p.returncode == 0 and "has already ended (success held, epoch 2)" in p.stdout
+    assert "--stop-patience 0" in p.stdout
+    assert {f: (early / f).read_bytes() for f in _files(early)} == files
+    p = cli("train", "--resume", str(early), "--stop-patience", "0", "--quiet")
+    assert p.returncode == 0 and f"done: {early} epochs=3 " in p.stdout, p.stderr
+    # a larger --epochs extends a run that ended on its budget
+    p = cli("train", "--resume", str(out), "--epochs", "3", "--quiet")
+    assert p.returncode == 0 and f"done: {out} epochs=3 " in p.stdout, p.stderr
+    assert json.loads((out / "done.json").read_text())["epochs"] == 3

@@ -231,3 +231,14 @@ def test_onnx_same_actions(tmp_path):
     assert meta["obs_names"][:3] == ["grip_pos.x", "grip_pos.y", "grip_pos.z"]
     assert len(meta["obs_names"]) == len(meta["obs_units"]) == 11
     assert meta["accepts"].startswith("observation: obs_names only")
+
+
+def test_trained_text_counts_in_words():
+    """'trained 1 epoch', not '1 epochs'; fractions and more are plural."""
+    from acder_lite.export import trained_text
+
+    one = trained_text(dict(epochs=1.0, episodes=1, test_success=None))
+    assert one == "trained 1 epoch, 1 episode"
+    assert trained_text(dict(epochs=2.5, episodes=1200, test_success=0.5)) == (
+        "trained 2.5 epochs, 1,200 episodes, test success 0.50 at its last evaluation"
+    )

@@ -542,3 +542,21 @@ def test_a_checkpoint_of_the_old_layout_still_resumes(tmp_path):
     t2.train(progress=False)
     assert len(rows_of(full / "progress.csv")) > len(ck["progress"]["rows"])  # on
     assert rows_of(part / "progress.csv") == rows_of(full / "progress.csv")
+
+
+def test_an_exported_torchscript_file_is_named_as_one(tmp_path, cli):
+    """export's TorchScript file given where a policy.pt is read (eval, robust, export,
+    --resume's checkpoint.pt): one line saying what it is and what is allowed, not
+    'truncated or not a checkpoint'."""
+    from acder_lite.export import export_torchscript
+
+    ts = tmp_path / "push.ts"
+    export_torchscript(_policy(), str(ts), REACH)
+    with pytest.raises(CheckpointError, match="TorchScript file written by export"):
+        load_torch(str(ts))
+    assert not aio._is_torchscript(REACH)  # torch.save's archive is not one
+    want = ["'" + str(ts) + "'", "TorchScript file written by export", "policy.pt"]
+    one_line(cli("eval", "--checkpoint", str(ts), "--episodes", "1"), *want)
+    one_line(cli("robust", str(ts)), *want)
+    one_line(cli("export", str(ts), "--out", str(tmp_path / "again.ts")), *want)
+    assert not (tmp_path / "again.ts").exists()
