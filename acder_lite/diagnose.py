@@ -55,6 +55,7 @@ from .io import (
 from .observations import rotation_indices, sincos_names
 from .rewards import intrinsic_reward
 from .start_states import select_candidate
+from .words import count
 from .wraps import GIMBAL_COS, angle_wraps, near_gimbal_lock
 
 
@@ -471,8 +472,9 @@ def diagnose(
     from .trainer import Trainer
 
     if not os.path.isdir(run_dir):
+        what = "is a file" if os.path.exists(run_dir) else "does not exist"
         raise CheckpointError(
-            f"run folder {run_dir!r} does not exist; allowed: a folder written by "
+            f"run folder {run_dir!r} {what}; allowed: a folder written by "
             "train (its checkpoint.pt, or policy.pt with --episodes)"
         )
     if episodes > 0:
@@ -508,6 +510,15 @@ def diagnose(
         path = os.path.join(run_dir, packed.FOLDER)
         print(f"diagnose: rebuilding the replay buffer from {path}", file=sys.stderr)
         ckpt = packed.unpack(run_dir)
+    elif not os.path.exists(path) and os.path.isfile(
+        os.path.join(run_dir, "policy.pt")
+    ):
+        raise CheckpointError(
+            f"run folder {run_dir!r} has policy.pt but no checkpoint.pt: a finished "
+            "run keeps only its policy (no replay buffer), and the minibatch diagnosis "
+            "needs checkpoint.pt (or a packed run, checkpoint.packed/); allowed: "
+            "--episodes N to diagnose the policy on N fresh episodes"
+        )
     else:
         ckpt = load_torch(path)
     if "buffer" not in ckpt:
@@ -564,7 +575,7 @@ def to_text(d: dict) -> str:
     lines = [
         f"{d['run']}: {d['method']} on {d['env']}"
         + (
-            f", {d['episodes']:,} episodes, test success {d['test_success']:.3f}"
+            f", {count(d['episodes'], 'episode')}, test success {d['test_success']:.3f}"
             if "episodes" in d
             else ""
         )
@@ -573,12 +584,12 @@ def to_text(d: dict) -> str:
     if c:
         q = c["error_quantiles"]
         lines += [
-            f"curiosity: {c['rows']:,} rows; error median {q['0.5']:.3g}, 90% "
+            f"curiosity: {count(c['rows'], 'row')}; error median {q['0.5']:.3g}, 90% "
             f"{q['0.9']:.3g}, 99% {q['0.99']:.3g}; at the clip eta={c['eta']}: "
             f"{c['share_at_clip']:.2f} of all rows, "
             + (
-                f"{c['share_at_clip_successful']:.2f} of the {c['successful_rows']:,} "
-                "rows of successful episodes"
+                f"{c['share_at_clip_successful']:.2f} of the "
+                f"{count(c['successful_rows'], 'row')} of successful episodes"
                 if c["successful_rows"]
                 else "no row of a successful episode drawn"
             ),
@@ -599,9 +610,11 @@ def to_text(d: dict) -> str:
             )
             picked = (
                 f"{w['share_of_candidates']:.2f} of the {w['candidates']} start-state "
-                "candidates the minibatches give"
+                f"{'candidate' if w['candidates'] == 1 else 'candidates'} the "
+                "minibatches give"
                 if w["candidates"]
-                else "no start-state candidate (no row of a successful episode)"
+                else "no start-state candidate in the drawn minibatches (none of "
+                "their rows is of a successful episode)"
             )
             lines.append(
                 f"  {what}: {w['share_of_rows']:.4f} of all rows, {at_clip}, {picked}"
@@ -612,7 +625,8 @@ def to_text(d: dict) -> str:
             lines.append("pool: empty")
         else:
             lines.append(
-                f"pool: {p['size']} candidates, {p['share_at_clip']:.2f} at the clip; "
+                f"pool: {count(p['size'], 'candidate')}, {p['share_at_clip']:.2f} at "
+                "the clip; "
                 f"gripper to {p['distance_to']}: median {p['distance_median']:.3f} m, "
                 f"max {p['distance_max']:.3f} m, {p['share_far']:.2f} farther than "
                 f"{p['far']} m; gripper height min {p['gripper_z_min']:.3f} m, median "
@@ -627,7 +641,10 @@ def to_text(d: dict) -> str:
                 )
     m = d.get("motion")
     if m:
-        head = f"motion: {m['episodes']} test episodes, success {m['success']:.3f}"
+        head = (
+            f"motion: {count(m['episodes'], 'test episode')}, "
+            f"success {m['success']:.3f}"
+        )
         if "blocks" not in m:
             lines.append(f"{head}; object {_motion_text(m)}")
         else:
@@ -669,7 +686,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--episodes",
         type=int,
-        default=0,
+        default=None,
+        metavar="N",
         help="instead, roll out the run's policy.pt for N test episodes and report how "
         "it moves the object (tasks with an object; needs no checkpoint). The 4 test "
         "envs step together, so N is rounded up to a multiple of 4",
@@ -693,15 +711,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     if args.batches < 1:
         raise ConfigError(f"batches={args.batches} is not allowed: an integer >= 1")
-    if args.episodes < 0:
-        raise ConfigError(f"episodes={args.episodes} is not allowed: an integer >= 0")
+    if args.episodes is not None and args.episodes < 1:
+        # 0 used to fall back on the minibatch diagnosis without a word
+        raise ConfigError(
+            f"episodes={args.episodes} is not allowed: an integer >= 1 (omit "
+            "--episodes for the minibatch diagnosis)"
+        )
     if args.top < 1:
         raise ConfigError(f"top={args.top} is not allowed: an integer >= 1")
     if args.seed is not None and args.seed < 0:
         raise ConfigError(f"seed={args.seed} is not allowed: an integer >= 0")
     if args.json is not None:  # before the work, not after it
         check_output(args.json, "json")
-    d = diagnose(args.run, args.batches, args.episodes, args.seed, args.top)
+    d = diagnose(args.run, args.batches, args.episodes or 0, args.seed, args.top)
     print(to_text(d))
     if args.json:
         try:

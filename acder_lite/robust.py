@@ -38,7 +38,8 @@ every knob that applies to the task, at `Knob.levels`):
   Trap: MuJoCo gives a contact the larger of its two geoms' coefficients, so scaling the
   table alone would not lower the block-table friction; with both scaled it is exactly
   scale x 1.0. The finger-block contact (fingers at 1.0) is unchanged below 1 and scaled
-  above.
+  above. On Reach (no block) it scales the table alone, which nothing touches unless the
+  gripper is pushed into it.
 - `mass` (factor): every block's mass and inertia x scale (the same shape in a denser
   material); `mj_setConst` then recomputes what MuJoCo derives from them. Reach: does
   not apply.
@@ -79,6 +80,7 @@ from .io import (
 )
 from .observations import indices, policy_env, policy_obs
 from .rollout import Policy, run_episodes
+from .words import count
 
 
 @dataclass(frozen=True)
@@ -95,6 +97,9 @@ class Knob:
     positive: bool = False
     needs_object: bool = False
     doc: str = ""
+    without_block: str = ""
+    """What the knob does on a task without a block (Reach), where that is less than
+    `doc` says ("" if the same, or if it `needs_object`)."""
 
     def check(self, value: float, horizon: int) -> None:
         """ConfigError (one line: knob, level, what is allowed) unless `value` is a
@@ -159,7 +164,10 @@ KNOBS: dict[str, Knob] = {
             (0.5, 1.0, 2.0),
             "a number > 0 (1: the model's friction)",
             positive=True,
-            doc="sliding friction of the table and the blocks x scale",
+            doc="sliding friction of the table and the blocks x scale (on Reach, "
+            "which has no block, the table alone: nothing there touches it unless the "
+            "gripper is pushed into it)",
+            without_block="scales the table alone",
         ),
         Knob(
             "mass",
@@ -514,7 +522,7 @@ def to_text(result: dict) -> str:
     method = f", {result['method']}" if result.get("method") else ""
     head = (
         f"robust: {result['env']}{method} (obs {result['obs']}), "
-        f"{result['trials']} trials at {result['tolerance']:g} m, seed "
+        f"{count(result['trials'], 'trial')} at {result['tolerance']:g} m, seed "
         f"{result['seed']}; one knob at a time, the others nominal"
     )
     who = "every block" if result["env"] in OBJECT_ENVS else "the gripper"
@@ -527,9 +535,9 @@ def to_text(result: dict) -> str:
     for r in result["rows"]:
         name, last = (r["knob"] if r["knob"] != last else ""), r["knob"]
         mark = "  (nominal)" if r["nominal"] else ""
-        count = f"{r['successes']:>5}/{r['trials']}"
+        score = f"{r['successes']:>5}/{r['trials']}"
         unit = unit_of(r["level"], r["unit"])
-        lines.append(f"{name:<14}{r['level']:>7g} {unit:<6}{count}{mark}")
+        lines.append(f"{name:<14}{r['level']:>7g} {unit:<6}{score}{mark}")
     return "\n".join(lines)
 
 
@@ -567,8 +575,8 @@ def reading(label: str, result: dict | None) -> str:
     nom = next(r for r in result["rows"] if r["nominal"])  # not always the first row
     low = weakest(result)
     head = (
-        f"the {name} policy succeeds in {nom['successes']} of {nom['trials']} trials "
-        "unperturbed"
+        f"the {name} policy succeeds in {nom['successes']} of "
+        f"{count(nom['trials'], 'trial')} unperturbed"
     )
     if low["successes"] == nom["successes"]:
         return head + " and as often at every perturbed level"
@@ -688,15 +696,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "5 cm)",
     )
     levels = lambda k: ",".join(f"{v:g}" for v in k.levels)
+
+    def where(k: Knob) -> str:
+        if k.needs_object:
+            return "; needs a block: not on Reach"
+        return f"; on Reach it {k.without_block}" if k.without_block else ""
+
     knobs = "; ".join(
-        f"{k.name} ({k.unit}, default {levels(k)})" for k in KNOBS.values()
+        f"{k.name} ({k.unit}, default {levels(k)}{where(k)})" for k in KNOBS.values()
     )
     p.add_argument(
         "--perturb",
         action="append",
         metavar="NAME[=L1,L2,...]",
         help="a knob and its levels (repeatable; default: every knob that "
-        f"applies, at its default levels): {knobs}",
+        f"applies to the policy's task, at its default levels): {knobs}",
     )
     p.add_argument(
         "--seed",

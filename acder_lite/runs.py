@@ -1,5 +1,6 @@
 """Finding and reading run folders: `<root>/<env>/<name>/seed<k>/` as
-`train` writes them.
+`sweep` writes them, or run folders of any other name (`train --out DIR`), each a cell
+of its own (`load_runs`).
 
 A run folder holds `config.json` (the config, the command, versions), `progress.csv`
 (one row per evaluation) and, once it has ended, `done.json`. `load_runs(root)` reads
@@ -24,6 +25,7 @@ import csv
 import json
 import math
 import os
+import re
 import shlex
 import sys
 from pathlib import Path
@@ -43,6 +45,10 @@ COLUMN_RANGES = {
 """(low, high, what is allowed) of the numeric progress.csv columns `read_progress`
 checks. Trap: float() reads "nan" and "inf", and a test_success of 7 in every row
 would turn "not within budget" into a crossing."""
+
+
+SEED_FOLDER = re.compile(r"seed([0-9]+)")
+"""The name of a run folder of the grid's layout, `<env>/<name>/seed<k>/`."""
 
 
 class RunError(ValueError):
@@ -282,7 +288,8 @@ def read_run(d: str | Path) -> dict:
     """One run folder as a dict; RunError (why) if its config.json or progress.csv
     cannot be read.
 
-    Keys: env, name (the folder under <env>/), method (config's, upgraded), seed, dir,
+    Keys: env, name (the folder under <env>/, or a run folder's own name where it is
+    not `seed<k>`: `load_runs`), method (config's, upgraded), seed, dir,
     rows (`read_progress`), config (upgraded "config"), planned_epochs, budget_epochs
     (the same, else the config's epochs), budget (training episodes of budget_epochs),
     episodes_per_epoch (cycles x episodes_per_cycle x workers), done (done.json
@@ -298,18 +305,15 @@ def read_run(d: str | Path) -> dict:
     )
     cfg = whole["config"]
     planned = planned_epochs(whole)
+    grid = SEED_FOLDER.fullmatch(d.name)  # <env>/<name>/seed<k>, else a cell of its own
     seed = cfg.get("seed")
     if seed is None:
-        seed = (
-            int(d.name[4:])
-            if d.name.startswith("seed") and d.name[4:].isdigit()
-            else d.name
-        )
+        seed = int(grid[1]) if grid else d.name
     per_epoch = cfg["cycles"] * cfg["episodes_per_cycle"] * cfg["workers"]
     budget_epochs = planned or cfg["epochs"]
     return dict(
-        env=cfg.get("env", d.parent.parent.name),
-        name=d.parent.name,
+        env=cfg.get("env", d.parent.parent.name if grid else d.parent.name),
+        name=d.parent.name if grid else d.name,
         method=cfg.get("method"),
         seed=seed,
         dir=str(d),
@@ -337,8 +341,15 @@ def stderr_line(message: str) -> None:
 def load_runs(root: str | Path, warn=stderr_line) -> list[dict]:
     """Every readable run under `root` (`read_run`), sorted by (env, name, seed).
 
-    A folder that cannot be read is passed to `warn` as one line, "skipped DIR: why",
-    and left out; `warn=None` drops the lines."""
+    Cells: a run folder named `seed<k>` is a seed of the cell (env, the folder above
+    it), the grid's layout `<env>/<name>/seed<k>/`; a run folder of any other name
+    (`train --out runs/push-her`) is a cell of its own, named after its folder, its
+    seed read from its config.json. Runs of one cell must agree on config.json's method
+    and hold one run per seed: where they do not (`conflicts`), every run involved is
+    left out, since none of them is the cell's more than the others.
+
+    A folder that cannot be read, or is so left out, is passed to `warn` as one line,
+    "skipped DIR: why", and left out; `warn=None` drops the lines."""
     runs = []
     for d in find_run_dirs(root):
         try:
@@ -347,7 +358,43 @@ def load_runs(root: str | Path, warn=stderr_line) -> list[dict]:
             if warn is not None:
                 warn(f"skipped {d}: {e}")
     runs.sort(key=lambda r: (r["env"], r["name"], str(r["seed"])))
-    return runs
+    why = conflicts(runs)
+    if warn is not None:
+        for r in runs:
+            if r["dir"] in why:
+                warn(f"skipped {r['dir']}: {why[r['dir']]}")
+    return [r for r in runs if r["dir"] not in why]
+
+
+def conflicts(runs: list[dict]) -> dict[str, str]:
+    """{run folder: why} for the runs of `read_run` that cannot share their cell (env,
+    name): every run of a cell whose runs disagree on the method, and every run of a
+    seed that a cell holds more than once."""
+    cells: dict[tuple, list[dict]] = {}
+    for r in runs:
+        cells.setdefault((r["env"], r["name"]), []).append(r)
+    out = {}
+    for (env, name), rs in cells.items():
+        where = f"{env}/{name}"
+        methods = sorted({str(r["method"]) for r in rs})
+        if len(methods) > 1:
+            for r in rs:
+                out[r["dir"]] = (
+                    f"the runs of cell {where} mix methods ({', '.join(methods)}); "
+                    "allowed: one method per cell (a folder of its own per method)"
+                )
+            continue
+        seeds: dict[str, list[dict]] = {}
+        for r in rs:
+            seeds.setdefault(str(r["seed"]), []).append(r)
+        for seed, same in seeds.items():
+            if len(same) > 1:
+                for r in same:
+                    out[r["dir"]] = (
+                        f"seed {seed} of cell {where} is in {len(same)} run folders; "
+                        "allowed: one run per seed of a cell"
+                    )
+    return out
 
 
 def how_ended(run: dict) -> str | None:

@@ -43,6 +43,7 @@ from .report import (
     summarize,
 )
 from .runs import load_runs, planned_cells
+from .words import and_join, count
 
 METHOD_LABELS = {
     "ddpg": "DDPG",
@@ -335,7 +336,8 @@ def _still_training(rs: list[RatioStat], cells: list[CellStat]) -> list[str]:
                 f"{name} {c.done} of {c.planned if c.planned is not None else c.done}"
                 for name, c in (("HER", her), ("ACDER", acder))
             ]
-            out.append(f"{task_label(r.env)}: {counts[0]} seeds, {counts[1]}")
+            seeds = "seed" if counts[0].endswith(" of 1") else "seeds"
+            out.append(f"{task_label(r.env)}: {counts[0]} {seeds}, {counts[1]}")
     return out
 
 
@@ -387,18 +389,6 @@ def sentence(parts: list[str]) -> str:
     return (
         text[:1].upper() + text[1:] + ("." if text and not text.endswith(".") else "")
     )
-
-
-def and_join(items: list[str]) -> str:
-    """'a', 'a and b', 'a, b and c'; 'none' for no items."""
-    if not items:
-        return "none"
-    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
-
-
-def count(n: int, noun: str) -> str:
-    """'1 seed', '3 seeds'."""
-    return f"{n} {noun}" + ("" if n == 1 else "s")
 
 
 def cut_texts(cells: list[CellStat]) -> tuple[str, str]:
@@ -467,13 +457,14 @@ def grid_state(cells: list[CellStat]) -> str:
     done, unfinished = sum(c.done for c in cells), sum(c.unfinished for c in cells)
     planned = sum(c.planned or 0 for c in cells)
     text = (
-        f"{started} of the {len(cells)} cells of Table I and Fig. 5 (the three tasks) "
-        "have at least one finished seed"
+        f"{started} of the {count(len(cells), 'cell')} of Table I and Fig. 5 (the "
+        f"three tasks) {'has' if started == 1 else 'have'} at least one finished seed"
     )
+    have = "has" if done == 1 else "have"
     text += (
-        f"; {done} of the {planned} planned seeds have finished"
+        f"; {done} of the {planned} planned seeds {have} finished"
         if planned
-        else f"; {done} seeds have finished"
+        else f"; {count(done, 'seed')} {have} finished"
     )
     if unfinished:
         text += (
@@ -482,7 +473,10 @@ def grid_state(cells: list[CellStat]) -> str:
         )
     held = sum(bool(c.hold) and c.n < (c.planned or 0) for c in cells)
     if held:
-        text += f", and {held} cells are on hold until the readings below are in"
+        text += (
+            f", and {count(held, 'cell')} {'is' if held == 1 else 'are'} on hold "
+            "until the readings below are in"
+        )
     return text + "."
 
 
@@ -556,7 +550,7 @@ def control_sentence(her: CellStat, icm: CellStat, bonus: CellStat) -> str:
         return f"{'inside' if inside else 'outside'} {label(c.name)}'s"
 
     text += f" Its crossing lies {against(her)} 95% interval and {against(icm)}" + (
-        f" ({bonus.done} of {bonus.planned} seeds finished)."
+        f" ({bonus.done} of {count(bonus.planned, 'seed')} finished)."
         if bonus.planned and bonus.done < bonus.planned
         else "."
     )
@@ -591,8 +585,8 @@ def sincos_sentence(acder: CellStat, sincos: CellStat) -> str:
     sep = separated(acder, sincos)
     if sep is None:
         left = (
-            f" ({sincos.done} of {sincos.planned} seeds of {label(sincos.name)} "
-            "finished)"
+            f" ({sincos.done} of {count(sincos.planned, 'seed')} of "
+            f"{label(sincos.name)} finished)"
             if sincos.planned
             else ""
         )
@@ -661,12 +655,14 @@ def choice_sentence(a: CellStat, b: CellStat, fallback: str, why: str) -> str:
             else f"before {units(b, b.earliest)} episodes"
         )
         return (
-            f"The mean curve of {label(b.name)} cannot cross {when}: a mean of {n} "
-            f"seeds reaches {b.threshold:.0%} only where every seed is at {level:.0%} "
+            f"The mean curve of {label(b.name)} cannot cross {when}: a mean of "
+            f"{count(n, 'seed')} reaches {b.threshold:.0%} only where every seed is "
+            f"at {level:.0%} "
             f"or more, and its seeds so far get there no earlier. {label(a.name)} "
             f"crossed at {units(a, a.crossing)}, so {label(b.name)} cannot cross "
-            f"first, whatever its {n - b.done} seed(s) still to finish do, and the "
-            f"rule keeps {label(a.name)}."
+            f"first, whatever its {count(n - b.done, 'seed')} still to finish "
+            f"{'does' if n - b.done == 1 else 'do'}, and the rule keeps "
+            f"{label(a.name)}."
         )
     if chosen is None:
         return (
@@ -753,7 +749,7 @@ def ablation_sentence(
         text += (
             f". At a {acder.threshold:.0%} threshold a mean curve crosses only where "
             "every seed is at it at once, so fewer seeds favour a cell: "
-            + and_join([f"{label(c.name)} ({c.n} seeds)" for c in fewer])
+            + and_join([f"{label(c.name)} ({count(c.n, 'seed')})" for c in fewer])
             + f" against full ACDER's {acder.n}; the table's per-seed crossings "
             "compare them more fairly"
         )
@@ -818,7 +814,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--results",
         default="results",
-        help="root of <env>/<name>/seed<k> (default: results)",
+        help="a folder of runs: <env>/<name>/seed<k>/ (a cell per <name>), or run "
+        "folders of any other name (a cell each), or one run folder (default: results)",
     )
     parser.add_argument(
         "--plan",
@@ -876,8 +873,11 @@ def run(args) -> int:
         )
         return 2
     if not root.is_dir():
+        what = "is a file" if root.exists() else "does not exist"
         print(
-            f"error: table: results folder {str(root)!r} does not exist",
+            f"error: table: results folder {str(root)!r} {what}; allowed: a folder of "
+            "runs (<env>/<name>/seed<k>/ as the grid has them, or run folders of any "
+            "name) or one run folder",
             file=sys.stderr,
         )
         return 2
@@ -885,10 +885,10 @@ def run(args) -> int:
     runs = load_runs(root, warn=skipped.append)
     if not runs:
         why = (
-            f" ({len(skipped)} folder(s) skipped, first: {skipped[0]})"
+            f" ({count(len(skipped), 'folder')} skipped, first: {skipped[0]})"
             if skipped
-            else "; allowed: a folder of <env>/<name>/seed<k> runs "
-            "written by train or sweep"
+            else "; allowed: a folder of runs written by train or sweep "
+            "(<env>/<name>/seed<k>/, or run folders of any name) or one run folder"
         )
         print(
             f"error: table: no readable run under {str(root)!r}{why}", file=sys.stderr

@@ -13,6 +13,7 @@ from acder_lite import envs as E
 from acder_lite.trainer import Trainer
 
 from conftest import tiny_config
+from test_cli import one_line_error
 
 
 @pytest.mark.parametrize("env_id,n", [("FetchReach-v4", 10), ("FetchPush-v4", 25)])
@@ -128,7 +129,8 @@ def test_curiosity_profile_finds_the_euler_wraps():
     c = D.curiosity_profile(tr, 2)
     assert c["wraps"]["candidates"] == 0
     text = D.to_text(dict(run="r", method="acder", env="FetchPush-v4", curiosity=c))
-    assert "no start-state candidate" in text and "nan" not in text.split("wraps:")[1]
+    assert "no start-state candidate in the drawn minibatches" in text
+    assert "nan" not in text.split("wraps:")[1]
 
 
 def test_diagnose_cli(tmp_path, cli):
@@ -183,6 +185,10 @@ def test_diagnose_errors(tmp_path, cli):
         ((str(tmp_path / "nothing"),), "run folder"),
         ((str(tmp_path / "nothing"), "--episodes", "1"), "does not exist; allowed"),
         ((str(her), "--batches", "0"), "batches=0"),
+        ((str(her / "policy.pt"),), "is a file; allowed: a folder written by train"),
+        # an output that cannot be written is refused before the work (which would
+        # otherwise end in the S-ICM error above)
+        ((str(her), "--json", "/proc/x.json"), "json='/proc/x.json' cannot be written"),
     ]:
         r = cli("diagnose", *args)
         assert r.returncode == 2, (args, r.stderr)
@@ -226,6 +232,45 @@ def test_text_of_a_minibatch_without_successful_rows():
     c.update(successful_rows=512, share_at_clip_successful=0.25)
     text = D.to_text(dict(run="r", method="acder", env="FetchPush-v4", curiosity=c))
     assert "0.25 of the 512 rows of successful episodes" in text
+    assert "curiosity: 2,048 rows;" in text
+    c.update(rows=1, successful_rows=1, share_at_clip_successful=1.0)
+    text = D.to_text(dict(run="r", method="acder", env="FetchPush-v4", curiosity=c))
+    assert "curiosity: 1 row;" in text and "of the 1 row of successful" in text
+
+
+def test_text_counts_are_singular_at_one():
+    p = dict(
+        size=1,
+        share_at_clip=1.0,
+        distance_to="object",
+        distance_median=0.1,
+        distance_max=0.1,
+        share_far=0.0,
+        far=0.2,
+        gripper_z_min=0.4,
+        gripper_z_median=0.4,
+    )
+    text = D.to_text(
+        dict(run="r", method="acder", env="FetchPush-v4", episodes=1, test_success=0.0)
+        | dict(pool=p)
+    )
+    assert ", 1 episode, test success" in text and "pool: 1 candidate, " in text
+    w = dict(
+        share_of_rows=0.0, share_at_clip=0.0, candidates=1, share_of_candidates=0.0
+    )
+    c = dict(
+        rows=2,
+        eta=0.8,
+        error_quantiles={"0.5": 0.1, "0.9": 0.5, "0.99": 0.8},
+        share_at_clip=0.0,
+        successful_rows=2,
+        share_at_clip_successful=0.0,
+        share_of_error_in_top=0.5,
+        top_entries=[("grip_pos_x", 0.2)],
+        wraps=w,
+    )
+    text = D.to_text(dict(run="r", method="acder", env="FetchPush-v4", curiosity=c))
+    assert "of the 1 start-state candidate the minibatches give" in text
 
 
 def test_object_motion_of_a_pushing_policy():
@@ -258,6 +303,22 @@ def test_diagnose_motion_needs_only_the_policy(tmp_path, cli):
     assert (
         m["episodes"] == 4 and 0.0 <= m["success"] <= 1.0
     )  # rounded up to the 4 test envs
+    # a finished run keeps policy.pt alone: the minibatch diagnosis says what to do,
+    # not that checkpoint.pt "does not exist" beside a policy.pt
+    one_line_error(
+        cli("diagnose", str(run)),
+        "has policy.pt but no checkpoint.pt: a finished run keeps only its policy "
+        "(no replay buffer)",
+        "checkpoint.packed/",
+        "--episodes N to diagnose the policy on N fresh episodes",
+    )
+    # --episodes 0 (or less) is refused, not read as "no --episodes"
+    for n in ("0", "-3"):
+        one_line_error(
+            cli("diagnose", str(run), "--episodes", n),
+            f"episodes={n} is not allowed: an integer >= 1",
+            "omit --episodes for the minibatch diagnosis",
+        )
     reach = tmp_path / "reach"
     Trainer(tiny_config(method="her", epochs=1, cycles=1), str(reach)).train(
         progress=False

@@ -4,6 +4,7 @@ bad input."""
 
 import csv
 import json
+import os
 
 import mujoco
 import numpy as np
@@ -371,3 +372,61 @@ def test_perturbed_policy_is_the_policy_under_the_setting(reach_policy):
     assert np.array_equal(a, b) and not np.array_equal(a, same(o, g))
     with pytest.raises(ConfigError, match="not the policy's task"):
         perturbed_policy(str(reach_policy), E.make_env("FetchPush-v4"), {}, 3)
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc"), reason="needs /proc")
+@pytest.mark.parametrize("option", ["--json", "--csv"])
+def test_cli_unwritable_output_is_refused_before_the_trials(cli, reach_policy, option):
+    """/proc exists and os.access says root may write there, but no file can be made:
+    refused before any trial (the table is not printed), not after all of them."""
+    p = cli("robust", str(reach_policy), "--trials", "1", option, "/proc/x.out")
+    one_line_error(p, f"{option[2:]}='/proc/x.out' cannot be written", "allowed:")
+    assert p.stdout == ""
+
+
+def test_cli_output_in_a_new_folder_is_written(cli, reach_policy, tmp_path):
+    """The check before the trials leaves nothing behind, and a folder still to be
+    made is no obstacle (the atomic write makes it)."""
+    out = tmp_path / "new" / "sub" / "r.json"
+    p = cli(
+        "robust",
+        str(reach_policy),
+        "--trials",
+        "1",
+        "--perturb",
+        "goal_noise=0",
+        "--json",
+        str(out),
+    )
+    assert p.returncode == 0, p.stderr
+    # one trial: "1 trial", not "1 trials"
+    assert "(obs full), 1 trial at 0.05 m" in p.stdout
+    assert json.loads(out.read_text())["trials"] == 1
+    assert sorted(x.name for x in tmp_path.rglob("*")) == ["new", "r.json", "sub"]
+
+
+def test_reading_of_one_trial_is_singular():
+    row = dict(
+        knob="goal_noise", level=0.0, unit="m", nominal=True, successes=1, trials=1
+    )
+    assert reading("p", dict(rows=[row])).startswith(
+        "the p policy succeeds in 1 of 1 trial unperturbed"
+    )
+
+
+def test_perturb_help_says_which_knobs_need_a_block(cli):
+    text = " ".join(cli("robust", "--help").stdout.split())
+    assert (
+        "obs_noise (m, default 0,0.005,0.01,0.02; needs a block: not on Reach)" in text
+    )
+    assert "mass (x, default 0.5,1,2; needs a block: not on Reach)" in text
+    assert "friction (x, default 0.5,1,2; on Reach it scales the table alone)" in text
+    assert "goal_noise (m, default 0,0.005,0.01,0.02)" in text
+    assert "on Reach, which has no block, the table alone" in KNOBS["friction"].doc
+    # which knobs apply is unchanged (committed robust.json files depend on it)
+    assert list(parse_perturb(None, "FetchReach-v4", 50)) == [
+        "goal_noise",
+        "action_delay",
+        "action_scale",
+        "friction",
+    ]

@@ -392,7 +392,7 @@ def test_table_exits_2_when_every_run_is_mistyped(tmp_path):
     p = run_cli("table", "--results", str(tmp_path), stdin=subprocess.DEVNULL)
     assert p.returncode == 2 and p.stdout == ""
     assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
-    assert f"no readable run under {str(tmp_path)!r} (2 folder(s) skipped" in p.stderr
+    assert f"no readable run under {str(tmp_path)!r} (2 folders skipped" in p.stderr
 
 
 def args(results, fmt="markdown", plan=None):
@@ -451,12 +451,14 @@ def test_table_json(results, capsys):
 
 def test_table_exits_2_when_nothing_is_readable(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
+    (tmp_path / "push.ts").write_bytes(b"a file, not a folder")
     broken = tmp_path / "broken"
     make_run(broken, P, "her", 0, [0.5])
     (broken / P / "her" / "seed0" / "config.json").write_text("[]")
     for root, why in [
         (tmp_path / "empty", "no readable run"),
         (tmp_path / "missing", "does not exist"),
+        (tmp_path / "push.ts", "is a file; allowed: a folder of runs"),
         (broken, "config.json is not a JSON object"),
     ]:
         assert cli.main(["table", "--results", str(root)]) == 2
@@ -1011,3 +1013,98 @@ def test_paper_epochs_texts_reach_by_hand():
         T.paper_epochs_texts("FetchPush-v4", 200, 50)["in_ours"]
         == "58, 49, 39, 36 and 11"
     )
+
+
+def flat_run(root, folder, method, seed, success, env=P, **kw):
+    """A run as `train --out ROOT/FOLDER` writes it: no <env>/<name>/seed<k> above."""
+    return make_run(
+        root / folder,
+        env,
+        folder,
+        seed,
+        success,
+        method=method,
+        name_dir=False,
+        epochs=len(success),
+        **kw,
+    )
+
+
+def test_flat_run_folders_are_a_cell_each(tmp_path, capsys):
+    """`train --out runs/push-her` and `runs/push-acder`, as the README's examples: each
+    run folder is its own cell, named after it, its seed from config.json; not one cell
+    "runs" mixing methods with seed 0 twice."""
+    runs = tmp_path / "runs"
+    flat_run(runs, "push-her", "her", 0, [0.2, 0.96], done="budget")
+    flat_run(runs, "push-acder", "acder", 0, [0.96, 0.96], done="budget")
+    flat_run(runs, "push-acder-s3", "acder", 3, [0.5, 0.96], done="budget")
+    got = RU.load_runs(runs, warn=pytest.fail)
+    assert [(r["env"], r["name"], r["method"], r["seed"]) for r in got] == [
+        (P, "push-acder", "acder", 0),
+        (P, "push-acder-s3", "acder", 3),
+        (P, "push-her", "her", 0),
+    ]
+    assert cli.main(["table", "--results", str(runs)]) == 0
+    cap = capsys.readouterr()
+    assert cap.err == "" and "(`runs`)" not in cap.out
+    for name in ("push-her", "push-acder", "push-acder-s3"):
+        assert f"(`{name}`) | 1 done |" in cap.out
+
+
+def test_a_single_run_folder_is_named_after_itself(tmp_path, capsys):
+    d = flat_run(tmp_path / "runs", "push-her", "her", 2, [0.5, 0.96], done="budget")
+    (run,) = RU.load_runs(d, warn=pytest.fail)
+    assert (run["name"], run["method"], run["seed"]) == ("push-her", "her", 2)
+    assert cli.main(["table", "--results", str(d)]) == 0
+    cap = capsys.readouterr()
+    assert "| Push | push-her (`push-her`) | 1 done |" in cap.out and cap.err == ""
+    # a seed folder of the grid is still a seed of its cell
+    g = make_run(tmp_path / "grid", P, "her", 4, [0.5, 0.96], done="budget")
+    (run,) = RU.load_runs(g, warn=pytest.fail)
+    assert (run["env"], run["name"], run["seed"]) == (P, "her", 4)
+
+
+def test_a_repeated_seed_or_mixed_methods_leave_those_runs_out(results, capsys):
+    """Two trees of one layout under one folder: both seed 0 runs of (Push, her) are
+    named on stderr and left out, the other runs read as before; a cell whose runs
+    disagree on the method is left out whole."""
+    again = make_run(results / "older", P, "her", 0, [0.1, 0.2], done="budget")
+    make_run(results, R, "mine", 0, [0.5, 1.0], method="her", epochs=2, done="budget")
+    make_run(results, R, "mine", 1, [0.5, 1.0], method="acder", epochs=2, done="budget")
+    lines = []
+    got = RU.load_runs(results, warn=lines.append)
+    assert sorted((r["env"], r["name"], r["seed"]) for r in got) == [
+        (P, "acder", 0),
+        (P, "her", 1),
+        (R, "her", 0),
+    ]
+    first = results / P / "her" / "seed0"
+    assert sorted(lines) == sorted(
+        [
+            f"skipped {again}: seed 0 of cell {P}/her is in 2 run folders; "
+            "allowed: one run per seed of a cell",
+            f"skipped {first}: seed 0 of cell {P}/her is in 2 run folders; "
+            "allowed: one run per seed of a cell",
+        ]
+        + [
+            f"skipped {results / R / 'mine' / f'seed{k}'}: the runs of cell {R}/mine "
+            "mix methods (acder, her); allowed: one method per cell (a folder of its "
+            "own per method)"
+            for k in (0, 1)
+        ]
+    )
+    # the command prints each on one line and the table of the rest
+    assert cli.main(["table", "--results", str(results)]) == 0
+    cap = capsys.readouterr()
+    err = cap.err.strip().splitlines()
+    assert len(err) == 4 and all(x.startswith("table: skipped ") for x in err)
+    assert "| Push | DDPG+HER (`her`) | 1 done |" in cap.out and "`mine`" not in cap.out
+
+
+def test_words_plural_and_count():
+    from acder_lite.words import count, plural
+
+    assert [plural(n, "epoch") for n in (0, 1, 2, 2.5)] == [
+        "epochs", "epoch", "epochs", "epochs"
+    ]  # fmt: skip
+    assert count(2560, "row") == "2,560 rows" and count(1, "trial") == "1 trial"
