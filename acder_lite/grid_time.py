@@ -32,6 +32,7 @@ from collections import defaultdict
 
 from .config import Config
 from .runs import RunError, read_config, read_progress, read_run
+from .words import count
 
 UNKNOWN_CPU = "an unrecorded CPU"
 """The CPU of a run whose config.json predates the record (`runfiles.cpu`)."""
@@ -197,20 +198,39 @@ def short(cpu: str) -> str:
 
 
 def sentence(est: dict, jobs: int) -> str:
-    """The estimate as the line `sweep --dry-run` ends with."""
-    cells = lambda n: f"{n} cell" + ("" if n == 1 else "s")
+    """The estimate as the line `sweep --dry-run` ends with. Cells of a task with no
+    finished run are counted apart (the hours leave them out); with none timed, the line
+    says so instead of '0 cells, 0.0 cell-hours'.
+
+    Trap: a dry run of one cell not yet timed said "1 to run", then "time left: 0
+    cells": the count was of timed cells only."""
+    cells = lambda n: count(n, "cell")
+    untimed = sum(est["untimed"].values())
+    per_task = ", ".join(
+        f"{env} ({cells(n)})" for env, n in sorted(est["untimed"].items())
+    )
+    held = f"; on hold, not counted: {cells(est['held'])}" if est["held"] else ""
+    if not est["cells"]:  # no hours to give: say what there is instead of 0.0
+        if not untimed:
+            return f"time left: no cell to run or resume{held}"
+        one = untimed == 1
+        tasks = per_task if len(est["untimed"]) > 1 else next(iter(est["untimed"]))
+        return (
+            f"time left: {cells(untimed)} to run, none timed yet (no finished run of "
+            f"{'its' if one else 'their'} task to time {'it' if one else 'them'} by: "
+            f"{tasks}){held}"
+        )
+    # the cells not timed are no part of the hours: "6 cells timed (of 15 to run)"
+    timed = f" timed (of {est['cells'] + untimed} to run)" if untimed else ""
     text = (
-        f"time left: {cells(est['cells'])}, {est['finished_h']:.1f} cell-hours as the "
-        f"finished runs of their task and method ended ({est['budget_h']:.1f} if each "
-        f"runs its budget); {jobs} at a time, {est['finished_h'] / jobs:.1f}-"
+        f"time left: {cells(est['cells'])}{timed}, {est['finished_h']:.1f} cell-hours "
+        f"as the finished runs of their task and method ended ({est['budget_h']:.1f} "
+        f"if each runs its budget); {jobs} at a time, {est['finished_h'] / jobs:.1f}-"
         f"{est['budget_h'] / jobs:.1f} hours"
     )
-    if est["untimed"]:
-        text += "; not timed (no finished run of the task): " + ", ".join(
-            f"{env} ({cells(n)})" for env, n in sorted(est["untimed"].items())
-        )
-    if est["held"]:
-        text += f"; on hold, not counted: {cells(est['held'])}"
+    if untimed:
+        text += f"; not timed (no finished run of the task): {per_task}"
+    text += held
     others = {c: f for c, f in est.get("factors", {}).items() if c != est.get("here")}
     if others:
         text += (

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import os
 import re
 import shlex
@@ -52,6 +53,7 @@ from .plan import (
     plan,
     read_plan,
 )
+from .words import count
 
 EXIT_INTERRUPTED = 130
 """Return code after Ctrl-C (128 + SIGINT), as a shell reports it."""
@@ -338,10 +340,10 @@ class CellQueue:
         if added:
             more = ", ..." if len(added) > 3 else ""
             parts.append(
-                f"{len(added)} cell(s) now to run ({', '.join(added[:3])}{more})"
+                f"{count(len(added), 'cell')} now to run ({', '.join(added[:3])}{more})"
             )
         if dropped:
-            parts.append(f"{dropped} cell(s) no longer to run")
+            parts.append(f"{count(dropped, 'cell')} no longer to run")
         return "plan read again: " + "; ".join(parts) if parts else ""
 
 
@@ -376,6 +378,68 @@ def train_argv(cell: Cell, args, resume: bool) -> list[str]:
             continue
         argv += ["--" + name.replace("_", "-"), str(value)]
     return argv + shlex.split(args.train_args or "") + ["--quiet"]
+
+
+IGNORED_WHEN_DONE = (*same_as.NEUTRAL_FIELDS, "update_dtype_why", "device_why")
+"""Config fields a finished cell's config.json may differ in without a note
+(`config_differences`): `same_as.NEUTRAL_FIELDS` (speed only), and the two `_why`
+fields, which say why `resolve` chose update_dtype and device (each value is
+compared itself; a reason such as 'asked for' against 'auto: ...' is no setting)."""
+
+SICM_ONLY = ("sicm_input", "sicm_angles")
+"""Config fields only S-ICM reads (`Trainer.curiosity_inputs`): compared only for a
+method with S-ICM. Trap: sicm_input's default became 'raw' after the readings
+(protocol v2's first decision), and the grid's HER runs on Push, trained before that,
+recorded 'normalised', which HER never reads: every sweep flagged them."""
+
+
+def config_differences(cell: Cell, args) -> str:
+    """How a finished cell's config.json differs from the config this sweep would give
+    the cell (its plan group's fields, the sweep's options, --train-args), compared as
+    `same_as.check` does but for `IGNORED_WHEN_DONE` and, on a method without S-ICM,
+    `SICM_ONLY`: '' if in nothing, else one clause ('its config differs: epochs 2
+    (this sweep: 50)')."""
+    given = _train_options(shlex.split(args.train_args or ""))
+    try:
+        ours = Config(
+            **cell_options(cell, args),
+            **(given if isinstance(given, dict) else {}),
+            env=cell.env,
+            method=cell.method,
+            seed=cell.seed,
+        ).resolve()
+    except ConfigError:  # `check_cells` says so
+        return ""
+    try:
+        with open(cell.out / "config.json") as f:
+            theirs = same_as.resolved(json.load(f)["config"])
+    except (OSError, ValueError, KeyError, TypeError, ConfigError) as e:
+        return f"its config.json cannot be read to compare ({type(e).__name__})"
+    ignored = set(IGNORED_WHEN_DONE)
+    if ours.switches.get("curiosity") != "sicm":
+        ignored |= set(SICM_ONLY)
+    mine = ours.to_dict()
+    diffs = [
+        f"{name} {theirs.get(name, '<absent>')!r} "
+        f"(this sweep: {mine.get(name, '<absent>')!r})"
+        for name in sorted(set(mine) | set(theirs))
+        if name not in ignored
+        and mine.get(name, "<absent>") != theirs.get(name, "<absent>")
+    ]
+    if not diffs:
+        return ""
+    more = f" and {len(diffs) - 3} more" if len(diffs) > 3 else ""
+    return "its config differs: " + ", ".join(diffs[:3]) + more
+
+
+def note_config_differences(cells: list[Cell], args) -> None:
+    """Add to the note of each finished cell (skipped: 'already complete') how its
+    config.json differs from the config this sweep would give it; still a skip."""
+    for c in cells:
+        if c.action == "skip" and c.note == "already complete":
+            why = config_differences(c, args)
+            if why:
+                c.note += f"; {why}"
 
 
 def copy_cell(cell: Cell, args) -> str:
@@ -545,6 +609,12 @@ def run(args) -> int:
     problem = check_folders(cells)
     if problem:
         return bad(problem)
+    # before the dry run too: it said nothing of an --address the real run refuses
+    if args.address:
+        problem = cluster.check_address(args.address)
+        if problem:
+            return bad(problem)
+    note_config_differences(cells, args)
     if args.dry_run:
         for c in cells:
             print(
@@ -563,10 +633,6 @@ def run(args) -> int:
         est = grid_time.estimate(cells, passed_options(args))
         _say(grid_time.sentence(est, args.jobs))
         return 0
-    if args.address:
-        problem = cluster.check_address(args.address)
-        if problem:
-            return bad(problem)
     for c in cells:
         if c.action == "skip":
             _say(f"skip   {c.name} ({c.note})")
@@ -656,16 +722,20 @@ def _drive(
 
     start()
     _say(
-        f"{len(todo)} cells ({sum(c.action == 'resume' for c in todo)} to resume), "
+        f"{count(len(todo), 'cell')} "
+        f"({sum(c.action == 'resume' for c in todo)} to resume), "
         f"threads={args.threads} each"
         + ("" if args.address else f", local Ray of {args.jobs * args.threads} CPUs")
     )
     t0 = time.monotonic()
+    stopped: list[Cell] = []  # the cells interrupted, to say which can resume
     try:
         while refs:
             ready, _ = ray.wait(list(refs), num_returns=1, timeout=1.0)
             for ref in ready:
-                _finish(refs.pop(ref), ref, counts, bar, t0)
+                cell = refs.pop(ref)
+                if _finish(cell, ref, counts, bar, t0) == "interrupted":
+                    stopped.append(cell)
                 change = queue.reread()
                 if change:
                     _say(change)
@@ -673,17 +743,16 @@ def _drive(
                 start()
     except KeyboardInterrupt:
         _say(
-            f"interrupt: cancelling {len(refs)} cell(s); each keeps its last checkpoint"
+            f"interrupt: cancelling {count(len(refs), 'cell')}; "
+            "each keeps its last checkpoint"
         )
-        for ref in refs:
+        for ref in refs:  # the cells running now: those handed to Ray, not yet ended
             ray.cancel(ref)
         for ref, cell in list(refs.items()):
-            _finish(cell, ref, counts, bar, t0)
+            if _finish(cell, ref, counts, bar, t0) == "interrupted":
+                stopped.append(cell)
         bar.close()
-        _say(
-            f"interrupted: {counts['done']} finished, "
-            f"{len(queue.waiting)} not started; re-run the same command to continue"
-        )
+        _say(interrupted_line(counts, stopped, len(queue.waiting)))
         return EXIT_INTERRUPTED
     bar.close()
     _say(
@@ -698,8 +767,35 @@ def _drive(
     return 1 if counts["failed"] or counts["interrupted"] else 0
 
 
-def _finish(cell: Cell, ref, counts: dict, bar, t0: float) -> None:
-    """Report one cell that ended (its task's result, or why there is none)."""
+def interrupted_line(counts: dict, stopped: list[Cell], waiting: int) -> str:
+    """The last line after Ctrl-C: the cells finished, those stopped (`stopped`: at
+    their last checkpoint, or before their first, which start over), failed, and
+    not started (`waiting`).
+
+    Trap: it counted only the finished and the not started ones ("0 finished, 0 not
+    started" after stopping the one cell that ran)."""
+    resumable = sum(cell_state(c.out) == "interrupted" for c in stopped)
+    fresh = len(stopped) - resumable
+    parts = [
+        f"{counts['done']} finished",
+        f"{resumable} stopped at "
+        + ("its last checkpoint" if resumable == 1 else "their last checkpoints"),
+    ]
+    if fresh:
+        parts.append(
+            f"{fresh} stopped before "
+            + ("its first checkpoint" if fresh == 1 else "their first checkpoints")
+            + " (to start over)"
+        )
+    if counts["failed"]:
+        parts.append(f"{counts['failed']} failed")
+    parts.append(f"{waiting} not started")
+    return f"interrupted: {', '.join(parts)}; re-run the same command to continue"
+
+
+def _finish(cell: Cell, ref, counts: dict, bar, t0: float) -> str:
+    """Report one cell that ended (its task's result, or why there is none); returns
+    how it is counted: 'done', 'interrupted' or 'failed'."""
     import ray
 
     try:
@@ -725,3 +821,4 @@ def _finish(cell: Cell, ref, counts: dict, bar, t0: float) -> None:
         f": {r['log_tail']} (see {cell.out / 'train.log'})" if key == "failed" else ""
     )
     _say(f"finish {cell.name}: {status}{tail} after {time.monotonic() - t0:.0f}s{more}")
+    return key

@@ -55,7 +55,8 @@ def test_the_estimate_adds_each_cells_epochs_left_at_its_timing(grid):
     assert est["finished_h"] == pytest.approx(finished / 3600)
     assert est["untimed"] == {PP: 9}
     line = G.sentence(est, 2)
-    assert "6 cells" in line and f"{finished / 3600:.1f} cell-hours" in line
+    assert "6 cells timed (of 15 to run)" in line
+    assert f"{finished / 3600:.1f} cell-hours" in line
     assert f"{PP} (9 cells)" in line
 
 
@@ -137,4 +138,31 @@ def test_epochs_from_other_cpus_are_scaled_to_this_one(tmp_path):
     assert "scaled to this CPU, EPYC [AVX2] (an epoch took 0.50x as long on " in line
     assert "Xeon [AVX512])" in line and line.endswith(
         "(no task and method in common): C"
+    )
+
+
+def test_cells_not_timed_are_counted_not_zero(grid, tmp_path, capsys):
+    """A dry run whose cells cannot be timed says how many there are (it said "1 to
+    run", then "time left: 0 cells, 0.0 cell-hours"); beside timed ones, the timed
+    count says it is part of the cells to run; with none to run, no hours at all."""
+    empty = tmp_path / "empty"
+    argv = ["sweep", "--envs", PP, "--methods", "her", "--seeds", "0"]
+    assert main([*argv, "--results", str(empty), "--dry-run"]) == 0
+    out = capsys.readouterr().out.strip().splitlines()
+    assert "1 to run" in out[-2]
+    assert out[-1] == (
+        "sweep: time left: 1 cell to run, none timed yet (no finished run of its "
+        f"task to time it by: {PP})"
+    )
+    cells = plan([PP, "FetchReach-v4"], ["her"], [0, 1], empty)
+    cells[-1].action, cells[-1].hold = "skip", "waits"
+    assert G.sentence(G.estimate(cells), 1) == (
+        "time left: 3 cells to run, none timed yet (no finished run of their task to "
+        f"time them by: {PP} (2 cells), FetchReach-v4 (1 cell)); on hold, not "
+        "counted: 1 cell"
+    )
+    est = G.estimate(plan([P, PP], ["her"], [1, 2], grid))
+    assert G.sentence(est, 1).startswith("time left: 1 cell timed (of 3 to run), ")
+    assert G.sentence(G.estimate(plan([P], ["her"], [0, 1], grid)), 1) == (
+        "time left: no cell to run or resume"
     )

@@ -287,6 +287,24 @@ def test_address_that_does_not_answer(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "from a node of the cluster" in err
     assert list(tmp_path.iterdir()) == []
+    # the dry run too (it printed its plan, exit 0, for an address the run refuses)
+    assert (
+        S.run(
+            parse(
+                [
+                    *REACH_HER_0,
+                    str(tmp_path / "r"),
+                    "--dry-run",
+                    "--address",
+                    "ray://h:10001",
+                ]
+            )
+        )
+        == 2
+    )
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1
+    assert "from a node of the cluster" in captured.err
 
 
 def test_join_problem_says_what_to_set(monkeypatch):
@@ -905,6 +923,10 @@ def test_ray_ctrl_c_keeps_checkpoints_and_the_same_command_finishes(tmp_path):
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 130, out
+    assert (
+        "interrupted: 0 finished, 1 stopped at its last checkpoint, 0 not started; "
+        "re-run the same command to continue"
+    ) in out
     assert (run / "checkpoint.pt").exists() and not (run / "done.json").exists()
     out = subprocess.run(
         cmd, cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=400
@@ -955,22 +977,28 @@ def test_queue_reads_the_plan_again(tmp_path):
     assert q.reread() == ""
     _two_group_plan(path, hold="")
     assert q.reread() == (
-        "plan read again: 1 cell(s) now to run (FetchReach-v4/her-per/seed0)"
+        "plan read again: 1 cell now to run (FetchReach-v4/her-per/seed0)"
     )
     assert [c.name for c in q.waiting] == [
         "FetchReach-v4/her/seed1",
         "FetchReach-v4/her-per/seed0",
     ]
     _two_group_plan(path, hold="first")
-    assert q.reread() == "plan read again: 1 cell(s) no longer to run"
+    assert q.reread() == "plan read again: 1 cell no longer to run"
     assert [c.name for c in q.waiting] == ["FetchReach-v4/her-per/seed0"]
     path.write_text("[[group]\n")
     assert q.reread().startswith("plan not read again (plan ")
     assert [c.name for c in q.waiting] == ["FetchReach-v4/her-per/seed0"]
     touch(tmp_path / "FetchReach-v4" / "her-per" / "seed0", "done.json")
     _two_group_plan(path, hold="first")  # another sweep finished it meanwhile
-    assert q.reread() == "plan read again: 1 cell(s) no longer to run"
+    assert q.reread() == "plan read again: 1 cell no longer to run"
     assert q.waiting == []
+    q = S.CellQueue([], 1, lambda: read_plan(path))  # her-per/seed0 is done
+    _two_group_plan(path, hold="")
+    assert q.reread() == (
+        "plan read again: 2 cells now to run (FetchReach-v4/her/seed0, "
+        "FetchReach-v4/her/seed1)"
+    )
 
 
 @pytest.mark.xdist_group(
@@ -999,7 +1027,8 @@ def test_ray_sweep_starts_a_group_whose_hold_is_lifted_while_it_runs(tmp_path):
             proc.kill()
     assert proc.returncode == 0, out
     assert "skip   FetchReach-v4/her-per/seed0 (on hold: waits)" in out
-    assert "plan read again: 1 cell(s) now to run (FetchReach-v4/her-per/seed0)" in out
+    assert "plan read again: 1 cell now to run (FetchReach-v4/her-per/seed0)" in out
+    assert "sweep: 2 cells (0 to resume)" in out
     finished = [line.split(": ")[1] for line in out.splitlines() if "finish " in line]
     assert finished == [
         "finish FetchReach-v4/her/seed0",
@@ -1153,3 +1182,91 @@ def test_same_as_needs_one_env_and_one_method(tmp_path, capsys):
     assert S.run(parse(["--plan", str(path), "--dry-run"])) == 2
     err = capsys.readouterr().err
     assert "same_as needs exactly one env and one method, not 2 and 1" in err
+
+
+def test_interrupted_line_counts_the_stopped_cells(tmp_path):
+    """After Ctrl-C, the cells stopped are counted, at their last checkpoint or before
+    their first (it said "0 finished, 0 not started" after stopping the one running)."""
+    cells = plan(["FetchReach-v4"], ["her"], [0, 1, 2], tmp_path)
+    for c in cells[:2]:
+        touch(c.out, "progress.csv", "checkpoint.pt")
+    counts = dict(done=1, failed=0, interrupted=3)
+    assert S.interrupted_line(counts, cells[:1], 0) == (
+        "interrupted: 1 finished, 1 stopped at its last checkpoint, 0 not started; "
+        "re-run the same command to continue"
+    )
+    counts["failed"] = 1
+    assert S.interrupted_line(counts, cells, 2) == (
+        "interrupted: 1 finished, 2 stopped at their last checkpoints, 1 stopped "
+        "before its first checkpoint (to start over), 1 failed, 2 not started; re-run "
+        "the same command to continue"
+    )
+
+
+def test_a_finished_cell_with_other_settings_is_a_skip_that_says_so(tmp_path, capsys):
+    """A finished cell trained with other settings than the sweep's stays a skip, its
+    note naming the fields; the speed-only fields, and S-ICM's on a method without it
+    (the committed HER runs on Push recorded sicm_input 'normalised', the default
+    before the readings), are no difference."""
+    results = tmp_path / "results"
+    base = dict(env="FetchPush-v4", update_dtype="float32")
+    finished_run(
+        results / "FetchPush-v4/her/seed0", **base, method="her", seed=0, epochs=2
+    )
+    finished_run(
+        results / "FetchPush-v4/her/seed1",
+        **base,
+        method="her",
+        seed=1,
+        threads=2,
+        sicm_input="normalised",
+    )
+    finished_run(
+        results / "FetchPush-v4/acder/seed0",
+        **base,
+        method="acder",
+        seed=0,
+        sicm_input="normalised",
+    )
+    finished_run(results / "FetchPush-v4/acder/seed1", **base, method="acder", seed=1)
+    argv = [
+        "--envs",
+        "FetchPush-v4",
+        "--methods",
+        "her",
+        "acder",
+        "--seeds",
+        "0",
+        "1",
+        "--results",
+        str(results),
+        "--train-args=--update-dtype float32",
+    ]
+    assert S.run(parse([*argv, "--dry-run"])) == 0
+    notes = {
+        line.split()[1]: "(" + line.split("  (", 1)[1]
+        for line in capsys.readouterr().out.splitlines()
+        if line.startswith("skip")
+    }
+    assert notes == {
+        "FetchPush-v4/her/seed0": (
+            "(already complete; its config differs: epochs 2 (this sweep: 50))"
+        ),
+        "FetchPush-v4/her/seed1": "(already complete)",
+        "FetchPush-v4/acder/seed0": (
+            "(already complete; its config differs: sicm_input 'normalised' "
+            "(this sweep: 'raw'))"
+        ),
+        "FetchPush-v4/acder/seed1": "(already complete)",
+    }
+    assert S.run(parse(argv)) == 0  # the real run: the same skips, nothing trained
+    out = capsys.readouterr().out
+    assert (
+        "skip   FetchPush-v4/her/seed0 (already complete; its config differs: "
+        "epochs 2 (this sweep: 50))"
+    ) in out
+    assert "nothing to run: 4 skipped" in out
+    assert S.run(parse([*argv, "--epochs", "2", "--dry-run"])) == 0
+    out = capsys.readouterr().out
+    assert "her/seed0" in out and "epochs 2 (this sweep: 2)" not in out
+    assert "epochs 50 (this sweep: 2)" in out  # her/seed1's budget was 50
