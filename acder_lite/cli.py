@@ -310,8 +310,10 @@ def _resume_budget(run: str, ckpt: dict, cfg: Config) -> str | None:
     A run that ended on its budget trains on with a larger --epochs; one that stopped
     early (its checkpoint says done) trains on once an option of its stop rule or its
     budget changes (`Trainer.train` then stops by the new rule)."""
-    import json
     import math
+    from pathlib import Path
+
+    from .runs import RunError, read_json
 
     old = Config.from_dict(dict(ckpt["config"]))
     progress = ckpt["progress"]
@@ -331,9 +333,8 @@ def _resume_budget(run: str, ckpt: dict, cfg: Config) -> str | None:
     if cycle < cfg.epochs * cfg.cycles and (not early or changed):
         return None  # extended: trains on
     try:
-        with open(done_path, encoding="utf-8") as f:
-            reason = json.load(f).get("stop_reason")
-    except (OSError, UnicodeDecodeError, ValueError, AttributeError):
+        reason = read_json(Path(done_path), "done.json").get("stop_reason")
+    except RunError:  # the checkpoint's reason, below
         reason = None
     reason = (
         reason

@@ -50,20 +50,35 @@ def check(config: dict, source: Path) -> tuple[str, str]:
     if missing:
         return "differs", f"same_as run {str(source)!r} has no {missing[0]}"
     try:
-        with open(source / "config.json") as f:
-            theirs = resolved(json.load(f)["config"])
+        theirs = read_resolved(source)
     except (OSError, ValueError, KeyError, TypeError, ConfigError) as e:
         return "differs", f"same_as run {str(source)!r}: config.json unreadable ({e})"
-    for name in sorted(set(config) | set(theirs)):
-        if name in NEUTRAL_FIELDS:
-            continue
-        ours, other = config.get(name, "<absent>"), theirs.get(name, "<absent>")
-        if ours != other:
-            return "differs", (
-                f"same_as run {str(source)!r} differs in {name}: {other!r} there, "
-                f"{ours!r} here; allowed: a run with this cell's config"
-            )
+    diffs = differences(config, theirs)
+    if diffs:
+        name, other, ours = diffs[0]
+        return "differs", (
+            f"same_as run {str(source)!r} differs in {name}: {other!r} there, "
+            f"{ours!r} here; allowed: a run with this cell's config"
+        )
     return "copy", ""
+
+
+def read_resolved(run: Path) -> dict:
+    """The resolved config (`resolved`) of a run folder's config.json; OSError,
+    ValueError, KeyError, TypeError or ConfigError where it cannot be read."""
+    with open(Path(run) / "config.json") as f:
+        return resolved(json.load(f)["config"])
+
+
+def differences(ours: dict, theirs: dict, ignore=NEUTRAL_FIELDS) -> list[tuple]:
+    """(field, theirs, ours) for each field two resolved configs differ in, by name,
+    but for `ignore`; a field one of them lacks is '<absent>' there."""
+    return [
+        (name, theirs.get(name, "<absent>"), ours.get(name, "<absent>"))
+        for name in sorted(set(ours) | set(theirs))
+        if name not in ignore
+        and ours.get(name, "<absent>") != theirs.get(name, "<absent>")
+    ]
 
 
 def copy_run(source: Path, out: Path, record: dict) -> None:

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import os
 import re
 import shlex
@@ -411,20 +410,15 @@ def config_differences(cell: Cell, args) -> str:
     except ConfigError:  # `check_cells` says so
         return ""
     try:
-        with open(cell.out / "config.json") as f:
-            theirs = same_as.resolved(json.load(f)["config"])
+        theirs = same_as.read_resolved(cell.out)
     except (OSError, ValueError, KeyError, TypeError, ConfigError) as e:
         return f"its config.json cannot be read to compare ({type(e).__name__})"
     ignored = set(IGNORED_WHEN_DONE)
     if ours.switches.get("curiosity") != "sicm":
         ignored |= set(SICM_ONLY)
-    mine = ours.to_dict()
     diffs = [
-        f"{name} {theirs.get(name, '<absent>')!r} "
-        f"(this sweep: {mine.get(name, '<absent>')!r})"
-        for name in sorted(set(mine) | set(theirs))
-        if name not in ignored
-        and mine.get(name, "<absent>") != theirs.get(name, "<absent>")
+        f"{name} {other!r} (this sweep: {mine!r})"
+        for name, other, mine in same_as.differences(ours.to_dict(), theirs, ignored)
     ]
     if not diffs:
         return ""
