@@ -52,7 +52,10 @@ env's physics state and random generator are put back to what they were after se
 so every level sees the same initial positions and goals; the noise comes from one
 generator seeded `[NOISE_STREAM, seed]` afresh at every level, so all noise levels scale
 the same standard-normal draws. Levels differ only by their perturbation, and the same
-command gives the same table.
+command gives the same table. Trial i's env does not depend on the trial count, so a
+bench of fewer trials replays a longer one's first trials, except at a noise level above
+0: the noise is drawn for all trials at once, laid out by their count (`Knob.drawn`).
+`compare_stored` checks a bench against one stored with `--json`.
 """
 
 from __future__ import annotations
@@ -80,7 +83,7 @@ from .io import (
 )
 from .observations import indices, policy_env, policy_obs
 from .rollout import Policy, run_episodes
-from .words import count
+from .words import and_join, count
 
 
 @dataclass(frozen=True)
@@ -100,6 +103,9 @@ class Knob:
     without_block: str = ""
     """What the knob does on a task without a block (Reach), where that is less than
     `doc` says ("" if the same, or if it `needs_object`)."""
+    drawn: bool = False
+    """Its level scales the bench's noise draws, which are made for all the trials at
+    once ((W, K, 3) a step): above 0, trial i's outcome depends on the trial count."""
 
     def check(self, value: float, horizon: int) -> None:
         """ConfigError (one line: knob, level, what is allowed) unless `value` is a
@@ -127,6 +133,7 @@ KNOBS: dict[str, Knob] = {
             "a number >= 0 (metres, the std of the camera's error "
             "on a block's position)",
             needs_object=True,
+            drawn=True,
             doc="Gaussian error on each block's measured position and on what derives "
             "from it",
         ),
@@ -136,6 +143,7 @@ KNOBS: dict[str, Knob] = {
             0.0,
             (0.0, 0.005, 0.01, 0.02),
             "a number >= 0 (metres, the std of the camera's error on a target)",
+            drawn=True,
             doc="Gaussian error on the target the policy is shown",
         ),
         Knob(
@@ -612,6 +620,124 @@ def side_by_side(results: dict[str, dict]) -> str:
             + " |"
         )
     return "\n".join(lines)
+
+
+SETTINGS = ("env", "obs", "seed", "tolerance", "horizon")
+"""What two benches must share for their rows to be compared."""
+
+
+def compare_stored(live: dict | None, stored: dict | None) -> dict:
+    """Check a bench run here (`live`, a `run_bench` result) against one stored by
+    `robust --json` (`stored`, the file's dict): the same policy, seed and simulator
+    should give the same outcomes, trial for trial.
+
+    Trial i starts from the env seeded `seed + i` whatever the trial count, so the first
+    n = min(N_live, N_stored) trials of each row are compared, by their `trial_success`
+    (by the counts if a side lacks it, and then only at equal N). At unequal N a row at
+    a noise level above 0 is skipped: its draws are laid out by the trial count. Rows
+    are matched by (knob, level).
+
+    Returns dict(equal: no compared row differs and both sides have the same rows, one
+    at least compared; whole: equal, nothing skipped and the same N; trials: n;
+    matched, only_live, only_stored: lists of (knob, level); skipped: (knob, level,
+    why); differing: dicts of knob, level, live and stored successes in the n trials,
+    trials: those that differ (from 0; None when only counts were compared);
+    sentence: one line saying it)."""
+    out = dict(equal=False, whole=False, trials=0, matched=[], differing=[])
+    out.update(skipped=[], only_live=[], only_stored=[])
+    if live is None or stored is None:
+        what = "no bench run here" if live is None else "no stored bench"
+        return dict(out, sentence=f"{what} to compare")
+    other = [k for k in SETTINGS if live.get(k) != stored.get(k)]
+    if other:
+        diff = "; ".join(
+            f"{k} {live.get(k)} here, {stored.get(k)} stored" for k in other
+        )
+        return dict(out, sentence=f"the benches cannot be compared ({diff})")
+    n = out["trials"] = min(live["trials"], stored["trials"])
+    same_n = live["trials"] == stored["trials"]
+    rows = [
+        {(r["knob"], float(r["level"])): r for r in b["rows"]} for b in (live, stored)
+    ]
+    out["only_stored"] = [k for k in rows[1] if k not in rows[0]]
+    for key, a in rows[0].items():
+        b = rows[1].get(key)
+        per_trial = b is not None and "trial_success" in a and "trial_success" in b
+        if b is None:
+            out["only_live"].append(key)
+        elif not (same_n or per_trial):
+            out["skipped"].append((*key, "a side keeps no per-trial outcomes"))
+        elif not same_n and KNOBS[key[0]].drawn and key[1] != 0:
+            out["skipped"].append((*key, "their noise draws depend on the trial count"))
+        elif per_trial:
+            x, y = a["trial_success"][:n], b["trial_success"][:n]
+            bad = [i for i in range(n) if x[i] != y[i]]
+            _tally(out, key, bad, sum(x), sum(y))
+        else:  # the counts of the same N trials
+            k, m = a["successes"], b["successes"]
+            _tally(out, key, [] if k == m else None, k, m)
+    one_sided = out["only_live"] or out["only_stored"]
+    out["equal"] = bool(out["matched"]) and not (out["differing"] or one_sided)
+    out["whole"] = out["equal"] and same_n and not out["skipped"]
+    sentence = _comparison_sentence(out, live["trials"], stored["trials"])
+    return dict(out, sentence=sentence)
+
+
+def _tally(out: dict, key: tuple, bad: list | None, live: int, stored: int) -> None:
+    if bad == []:
+        out["matched"].append(key)
+    else:
+        row = dict(knob=key[0], level=key[1], live=live, stored=stored, trials=bad)
+        out["differing"].append(row)
+
+
+def _comparison_sentence(c: dict, n_live: int, n_stored: int) -> str:
+    """`compare_stored`'s one line."""
+    n, compared = c["trials"], len(c["matched"]) + len(c["differing"])
+    each = f"all {n} trials of each"
+    if n_live != n_stored:
+        each = f"the first {n} trials of each ({n_live} run here, {n_stored} stored)"
+    if c["differing"]:
+        parts = [
+            f"`{d['knob']}` = {quantity(d['level'], KNOBS[d['knob']].unit)} "
+            f"({d['live']}/{n} here, {d['stored']}/{n} stored)"
+            for d in c["differing"]
+        ]
+        text = (
+            f"the live bench differs from the stored one on {len(parts)} of "
+            f"{count(compared, 'row')}, {each}: " + "; ".join(parts)
+        )
+    elif compared:
+        every = "" if c["skipped"] else "all "
+        text = (
+            f"the live bench equals the stored one trial for trial on {every}"
+            f"{count(compared, 'row')}, {each}"
+        )
+    else:
+        text = "no row of the live bench can be compared with the stored one"
+    if c["skipped"]:
+        text += (
+            f"; {count(len(c['skipped']), 'row')} cannot be compared at {n} trials, "
+            f"{_levels(c['skipped'])} ({c['skipped'][0][2]})"
+        )
+    for side, where in (("only_live", "here"), ("only_stored", "stored")):
+        if c[side]:
+            text += f"; only {where}: {_levels(c[side])}"
+    return text
+
+
+def _levels(keys: list[tuple]) -> str:
+    """(knob, level, ...) rows as "`obs_noise` = 0.005, 0.01 m and `mass` = 2 x"."""
+    by_knob: dict[str, list] = {}
+    for k, v, *_ in keys:
+        by_knob.setdefault(k, []).append(v)
+    return and_join(
+        [
+            f"`{k}` = {', '.join(f'{v:g}' for v in vs)} "
+            f"{unit_of(vs[-1], KNOBS[k].unit)}"
+            for k, vs in by_knob.items()
+        ]
+    )
 
 
 # ----- the command

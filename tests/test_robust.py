@@ -1,6 +1,6 @@
 """The robustness bench: a perfect scripted policy scores N/N, each knob perturbs only
-what it names, model fields come back bit for bit, the same seed gives the same table,
-bad input."""
+what it names, model fields come back bit for bit, the same seed gives the same table
+(and the table the command stored), bad input."""
 
 import csv
 import json
@@ -17,6 +17,7 @@ from acder_lite.robust import (
     Bench,
     Layout,
     Perturbed,
+    compare_stored,
     load_policy,
     nominal,
     parse_perturb,
@@ -430,3 +431,146 @@ def test_perturb_help_says_which_knobs_need_a_block(cli):
         "action_scale",
         "friction",
     ]
+
+
+# ----- a bench against a stored one
+
+
+def _hand_bench(trials: int, rows: dict, **settings) -> dict:
+    """A bench result as run_bench or `robust --json` gives it, made by hand: rows
+    {(knob, level): per-trial outcomes}."""
+    base = dict(env="FetchPush-v4", obs="simplified", seed=12345, tolerance=0.05)
+    return dict(
+        base,
+        horizon=50,
+        trials=trials,
+        **settings,
+        rows=[
+            dict(knob=k, level=v, successes=sum(t), trials=trials, trial_success=t)
+            for (k, v), t in rows.items()
+        ],
+    )
+
+
+STORED = {
+    ("obs_noise", 0.0): [1, 1, 0, 1],
+    ("obs_noise", 0.01): [1, 0, 0, 1],
+    ("mass", 2.0): [1, 0, 1, 1],
+}
+
+
+def test_compare_stored_finds_a_differing_trial():
+    stored = _hand_bench(4, STORED)
+    same = compare_stored(_hand_bench(4, dict(STORED)), stored)
+    assert same["equal"] and same["whole"] and len(same["matched"]) == 3
+    assert same["sentence"] == (
+        "the live bench equals the stored one trial for trial on all 3 rows, all 4 "
+        "trials of each"
+    )
+    # one trial flipped, the count unchanged too: found by trial, not by count
+    flipped = {**STORED, ("mass", 2.0): [0, 1, 1, 1]}
+    c = compare_stored(_hand_bench(4, flipped), stored)
+    assert not c["equal"] and len(c["matched"]) == 2
+    assert c["differing"] == [
+        dict(knob="mass", level=2.0, live=3, stored=3, trials=[0, 1])
+    ]
+    assert c["sentence"].startswith(
+        "the live bench differs from the stored one on 1 of 3 rows, all 4 trials of "
+        "each: `mass` = 2 x (3/4 here, 3/4 stored)"
+    )
+    # the counts alone (a file without trial_success) at the same N
+    counted = _hand_bench(4, {**STORED, ("mass", 2.0): [0, 0, 1, 1]})
+    for r in counted["rows"]:
+        del r["trial_success"]
+    (d,) = compare_stored(counted, stored)["differing"]
+    assert (d["live"], d["stored"], d["trials"]) == (2, 3, None)
+
+
+def test_compare_stored_with_fewer_trials_skips_the_noise_rows():
+    stored = _hand_bench(4, STORED)
+    # the first 2 trials: obs_noise 0.01 differs, but its draws are not the stored
+    # ones at 2 trials; mass 2 differs in trial 2, which is not compared
+    live = _hand_bench(
+        2,
+        {("obs_noise", 0.0): [1, 1], ("obs_noise", 0.01): [0, 0], ("mass", 2): [1, 0]},
+    )
+    c = compare_stored(live, stored)
+    assert c["equal"] and not c["whole"] and c["trials"] == 2
+    assert c["matched"] == [("obs_noise", 0.0), ("mass", 2.0)]
+    assert [s[:2] for s in c["skipped"]] == [("obs_noise", 0.01)]
+    assert c["sentence"] == (
+        "the live bench equals the stored one trial for trial on 2 rows, the first 2 "
+        "trials of each (2 run here, 4 stored); 1 row cannot be compared at 2 trials, "
+        "`obs_noise` = 0.01 m (their noise draws depend on the trial count)"
+    )
+    live["rows"][0]["trial_success"] = [1, 0]  # a noise-free row is compared
+    c = compare_stored(live, stored)
+    assert not c["equal"] and c["differing"][0]["trials"] == [1]
+
+
+def test_compare_stored_refuses_other_settings_and_reports_missing_rows():
+    stored = _hand_bench(4, STORED)
+    c = compare_stored(_hand_bench(4, STORED, seed=0), stored)
+    assert not c["equal"] and not c["matched"]
+    assert c["sentence"] == "the benches cannot be compared (seed 0 here, 12345 stored)"
+    fewer = {k: v for k, v in STORED.items() if k[0] != "mass"}
+    more = {**STORED, ("action_delay", 1): [0, 0, 0, 0]}
+    c = compare_stored(_hand_bench(4, fewer), _hand_bench(4, more))
+    assert not c["equal"] and c["only_stored"] == [("mass", 2.0), ("action_delay", 1)]
+    assert c["sentence"].endswith(
+        "; only stored: `mass` = 2 x and `action_delay` = 1 step"
+    )
+    assert compare_stored(None, stored)["sentence"] == "no bench run here to compare"
+    assert not compare_stored(stored, None)["equal"]
+
+
+@pytest.fixture(scope="module")
+def controller_policy(tmp_path_factory):
+    """A policy.pt whose actor is `reach_controller`, saturated by its tanh: its
+    ReLU layers carry g - o[:3] (the normalisers are the identity) and the last
+    multiplies by 10."""
+    import torch
+
+    from acder_lite.core import Actor
+    from acder_lite.io import save_torch
+    from acder_lite.normalizer import Normalizer
+    from acder_lite.rollout import Policy
+
+    actor = Actor(13, 4, 6, 2)
+    first, second, last = (m for m in actor.net if isinstance(m, torch.nn.Linear))
+    with torch.no_grad():
+        for p in actor.parameters():
+            p.zero_()
+        for i in range(3):
+            for j, sign in ((i, 1.0), (i + 3, -1.0)):  # relu(d) and relu(-d)
+                first.weight[j, i], first.weight[j, 10 + i] = -sign, sign
+                second.weight[j, j] = 1.0
+                last.weight[i, j] = 10.0 * sign
+    pol = Policy(actor, Normalizer(10), Normalizer(3), 200.0)
+    path = tmp_path_factory.mktemp("controller") / "policy.pt"
+    save_torch(str(path), {"policy": dict(pol.state_dict("FetchReach-v4", "her"))})
+    return path
+
+
+def test_the_bench_equals_the_one_the_command_stored(cli, controller_policy, tmp_path):
+    """The command's path (its own process, policy file, --json) and run_bench here
+    give the same outcomes, trial for trial; with fewer trials, their first ones."""
+    js = tmp_path / "robust.json"
+    knobs = {"goal_noise": [0.0, 0.01], "action_scale": [0.1, 1.0]}
+    flags = [f"--perturb={k}={','.join(map(str, v))}" for k, v in knobs.items()]
+    args = ["--trials", "6", "--tolerance", "0.02", "--json", str(js)]
+    p = cli("robust", str(controller_policy), *flags, *args)
+    assert p.returncode == 0, p.stderr
+    stored = json.loads(js.read_text())
+    scale = stored["rows"][2]["trial_success"]
+    assert 0 < sum(scale[:3]) < 3  # trials that tell a bench apart, even the first 3
+    act, obs = policy_act(*load_policy(str(controller_policy)))
+    kw = dict(knobs=knobs, tolerance=0.02, seed=12345)
+    same = compare_stored(run_bench(act, "FetchReach-v4", obs, trials=6, **kw), stored)
+    assert same["whole"] and len(same["matched"]) == 4, same["sentence"]
+    fewer = run_bench(act, "FetchReach-v4", obs, trials=3, **kw)
+    c = compare_stored(fewer, stored)
+    assert c["equal"] and c["trials"] == 3 and len(c["matched"]) == 3, c["sentence"]
+    assert [s[:2] for s in c["skipped"]] == [("goal_noise", 0.01)]
+    other = run_bench(act, "FetchReach-v4", obs, trials=6, **dict(kw, seed=1))
+    assert not compare_stored(other, dict(stored, seed=1))["equal"]
