@@ -66,9 +66,34 @@ def rows_of(path) -> list[dict]:
         ]
 
 
+def curve_cell(name: str, values, env="FetchPush-v4", ended="budget", seeds=2):
+    """A cell of `seeds` equal seeds whose test success at epochs 1, 2, ... is `values`
+    (400 episodes an epoch, a budget of len(values) epochs), through report.cell_stat:
+    for Table I's text cells (table) and the book's sentences (findings)."""
+    from acder_lite.report import cell_stat
+
+    rows = [
+        dict(epoch=float(i), episodes=400.0 * i, test_success=v)
+        for i, v in enumerate(values, 1)
+    ]
+    r = dict(
+        env=env,
+        name=name,
+        method=name,
+        seed=0,
+        rows=rows,
+        ended=ended,
+        budget_epochs=float(len(values)),
+        episodes_per_epoch=400.0,
+        update_dtype="float32",
+    )
+    return cell_stat(env, name, [dict(r, seed=i) for i in range(seeds)], n_boot=100)
+
+
 def push_cell(name: str, crossing, low, high):
     """A FetchPush CellStat with only a mean-curve crossing and its interval (epochs),
-    for the readings' rule (report.choose) and its sentence (table.choice_sentence)."""
+    for the readings' rule (report.choose) and its sentence
+    (findings.choice_sentence)."""
     from acder_lite.report import CellStat
 
     return CellStat(

@@ -1109,14 +1109,14 @@ def test_same_as_copies_a_finished_run_with_the_cells_config(tmp_path, capsys):
         config["config"] == source["config"] and config["command"] == source["command"]
     )
     assert config["same_as"]["run"] == "../../../../exp/FetchPush-v4/sicm-raw/seed0"
-    from acder_lite import runs, table
+    from acder_lite import findings, runs
 
     copied = runs.read_run(run)
     assert copied["same_as"] == str(exp / "seed0") and copied["seed"] == 0
-    assert table.copies_sentence([copied, runs.read_run(exp / "seed0")]) == (
+    assert findings.copies_sentence([copied, runs.read_run(exp / "seed0")]) == (
         f"DDPG+ACDER's seed 0 on Push is the run of `{exp}`."
     )
-    assert table.copies_sentence([copied], root=tmp_path) == (
+    assert findings.copies_sentence([copied], root=tmp_path) == (
         "DDPG+ACDER's seed 0 on Push is the run of `exp/FetchPush-v4/sicm-raw`."
     )
     assert "threads" in config["same_as"]["compared"]
