@@ -18,6 +18,8 @@ import zipfile
 import numpy as np
 import torch
 
+from .signals import deferred
+
 
 def atomic_write(path: str, write) -> None:
     """Call `write(f)` on a binary file that becomes `path` only once written whole: a
@@ -35,12 +37,13 @@ def _atomic(path: str, write) -> None:
         prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder
     )
     try:
-        os.chmod(tmp, 0o644)
-        with os.fdopen(fd, "wb") as f:
-            write(f)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
+        with deferred():  # an interrupt inside torch.save is no KeyboardInterrupt
+            os.chmod(tmp, 0o644)
+            with os.fdopen(fd, "wb") as f:
+                write(f)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
