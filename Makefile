@@ -46,4 +46,4 @@ bench: setup
 	$(PY) -m acder_lite bench $(ARGS)
 
 clean:
-	rm -rf _build .pytest_cache
+	rm -rf _build .pytest_cache book/apidocs

@@ -189,7 +189,7 @@ class Config:
     default target clip)."""
     seed: int = 0
     """Seeds numpy, torch and every env
-    (worker i gets seed*1000+i, test envs seed*1000+500+i)."""
+    (worker i gets `seed*1000+i`, test envs `seed*1000+500+i`)."""
     obs: str = "full"
     """What the policy (and S-ICM) sees of the observation: 'full' (the Fetch vector:
     positions, rotations, velocities) or 'simplified' (paper, section V-E, for the UR5:
@@ -367,10 +367,10 @@ class Config:
     split_update: str = "auto"
     """Compute the critic's and the actor's loss (forward and backward) at the same
     time, in two threads (`DDPG.update`): 'on', 'off' (one thread computes both, as
-    protocol v1 and every run before this setting did), or 'auto' ('on' when `threads`
-    >= 2). On, torch runs on threads // 2 intra-op threads (at least 1) in each of the
-    two threads, instead of `threads` in one: two chains of small matmuls on a core each
-    beat one chain whose every op is split over both cores
+    protocol v1 and every run before this setting did), or 'auto' ('on' when
+    `threads` >= 2). On, torch runs on threads // 2 intra-op threads (at least 1) in
+    each of the two threads, instead of `threads` in one: two chains of small matmuls
+    on a core each beat one chain whose every op is split over both cores
     (experiments/speed/README.md). The losses share no trained tensor, so the numbers
     are those of a one-thread update on the same intra-op threads: at threads=2 a run
     equals the threads=1 run bit for bit (tests/test_rollout.py)."""

@@ -293,11 +293,11 @@ def load_torch(path: str) -> dict:
     """Read a policy.pt or checkpoint.pt written by train,
     without running anything from the file.
 
-    torch.load(weights_only=True) with SAFE_GLOBALS: a pickle naming any other global (a
-    crafted __reduce__) is refused before the call happens. Then the layout is checked:
-    a dict with our `policy` (keys, types and the actor's shapes, `check_policy`) and,
-    for a checkpoint, every part of `CHECKPOINT_KEYS`. Anything else raises
-    CheckpointError: one line naming the file.
+    torch.load(weights_only=True) with SAFE_GLOBALS: a pickle naming any other global
+    (a crafted `__reduce__`) is refused before the call happens. Then the layout is
+    checked: a dict with our `policy` (keys, types and the actor's shapes,
+    `check_policy`) and, for a checkpoint, every part of `CHECKPOINT_KEYS`. Anything
+    else raises CheckpointError: one line naming the file.
     """
     if os.path.isdir(path):
         raise CheckpointError(f"checkpoint {path!r} is a folder; {ALLOWED}")

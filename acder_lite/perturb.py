@@ -17,8 +17,8 @@ does; `scaled_model` changes the MuJoCo model for the others (friction, mass).
   a colour-blob camera gives none, so a full-state policy is flattered here (and could
   not run on the paper's robot at all). Reach has no block: the knob does not apply.
 - `goal_noise` (m): the camera's error on the target(s) (the paper's goals also come
-  from colour recognition): every step the goal the policy sees is the true one
-  + N(0, s^2 I); success is judged on the true goal.
+  from colour recognition): every step the goal the policy sees is the true one +
+  N(0, s^2 I); success is judged on the true goal.
 - `action_delay` (steps): the action computed from the observation of step t is applied
   at step t + d; the first d steps apply the zero action (Fetch's action is a
   displacement, so the arm holds still and the fingers keep their position).

@@ -162,13 +162,13 @@ def read_plan(path: str | Path) -> list[Cell]:
     each with its action.
 
     A plan is a list of `[[group]]` tables, each a grid: `envs`, `methods`, `seeds`
-    (lists); `root` (folder of <env>/<name>/seed<k>, relative to the plan's own folder;
-    default: that folder); `name` (the folder under <env>/, default the method; needs
-    one method); `config` (Config fields the runs set, e.g. {sicm_input = "raw"});
-    `queue` (default "grid"); `hold` (a reason: the group is planned but not started);
-    `same_as` (a folder of seed<k> runs, relative to the plan's folder, that these cells
-    are: each is copied once it has finished, if its config equals the cell's, see
-    `same_as.check`; needs one env and one method). A
+    (lists); `root` (folder of `<env>/<name>/seed<k>`, relative to the plan's own
+    folder; default: that folder); `name` (the folder under `<env>/`, default the
+    method; needs one method); `config` (Config fields the runs set, e.g.
+    {sicm_input = "raw"}); `queue` (default "grid"); `hold` (a reason: the group is
+    planned but not started); `same_as` (a folder of `seed<k>` runs, relative to the
+    plan's folder, that these cells are: each is copied once it has finished, if its
+    config equals the cell's, see `same_as.check`; needs one env and one method). A
     `[defaults]` table gives every group its keys (a group's own win; `config` tables
     merge). Cells of different queues alternate, so two queues share the cores; within a
     queue they keep the file's order. Any other top-level key, and any (env, method)

@@ -453,7 +453,7 @@ class CellStat:
 
     env: str
     name: str
-    """The folder under <env>/ (a method, or an experiment's name such as
+    """The folder under `<env>/` (a method, or an experiment's name such as
     acder-baselines-clip)."""
     method: str | None
     """The runs' method (config.json), None without runs."""

@@ -288,7 +288,7 @@ def read_run(d: str | Path) -> dict:
     """One run folder as a dict; RunError (why) if its config.json or progress.csv
     cannot be read.
 
-    Keys: env, name (the folder under <env>/, or a run folder's own name where it is
+    Keys: env, name (the folder under `<env>/`, or a run folder's own name where it is
     not `seed<k>`: `load_runs`), method (config's, upgraded), seed, dir,
     rows (`read_progress`), config (upgraded "config"), planned_epochs, budget_epochs
     (the same, else the config's epochs), budget (training episodes of budget_epochs),

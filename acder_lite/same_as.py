@@ -72,7 +72,7 @@ def read_resolved(run: Path) -> dict:
 
 def differences(ours: dict, theirs: dict, ignore=NEUTRAL_FIELDS) -> list[tuple]:
     """(field, theirs, ours) for each field two resolved configs differ in, by name,
-    but for `ignore`; a field one of them lacks is '<absent>' there."""
+    but for `ignore`; a field one of them lacks is `'<absent>'` there."""
     return [
         (name, theirs.get(name, "<absent>"), ours.get(name, "<absent>"))
         for name in sorted(set(ours) | set(theirs))

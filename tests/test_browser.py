@@ -7,10 +7,11 @@
   robot. Every process of the session listens on loopback only.
 - Built book: `_build/html` if `make book` made it, else a small book built here
   (chapter 1 with its Meshcat scene, the paper page with its equations, chapter 8 with
-  Table I, a page whose cell displays a bench table) under ACDER_FAST=1. Every page
-  loads without a request leaving 127.0.0.1/file:, MathJax has typeset every equation,
-  Table I and the bench table are HTML <table>s, no page shows a raw Markdown table,
-  and every embedded scene's canvas shows more than a background.
+  Table I, a page whose cell displays a bench table, the API reference with autodoc2's
+  pages) under ACDER_FAST=1. Every page loads without a request leaving
+  127.0.0.1/file:, MathJax has typeset every equation, Table I and the bench table are
+  HTML <table>s, no page shows a raw Markdown table, and every embedded scene's canvas
+  shows more than a background; the small book's build warns about no API page.
 
 The browser is /usr/bin/chromium (`apt-get install chromium`), never a downloaded one.
 Without it the module is skipped with one line; under CI=true that is an error instead.
@@ -53,6 +54,10 @@ MATH_PAGE = "book/paper"  # display and inline equations
 # a page written here: a cell displays a bench table as chapter 10 does (IPython's
 # Markdown); the book's config must render it as a <table>, not as `| ... |` text
 OUTPUTS_PAGE = "notebooks/markdown_outputs"
+# the API reference; autodoc2 writes its module pages when the book is built
+API_PAGE = "book/api"
+API_GLOB = "book/apidocs/acder_lite/acder_lite.*"  # as _toc.yml takes them in
+API_MODULE_PAGE = "book/apidocs/acder_lite/acder_lite.rewards"  # one of them: Eq. 4-6
 BUILD_TIMEOUT = 600
 RUN_TIMEOUT = 300
 
@@ -165,6 +170,11 @@ parts:
       - file: {SCENE_CHAPTER}
       - file: {TABLE_CHAPTER}
       - file: {OUTPUTS_PAGE}
+  - caption: Reference
+    chapters:
+      - file: {API_PAGE}
+        sections:
+          - glob: {API_GLOB}
 """
 
 
@@ -223,15 +233,17 @@ class Book:
             toc = yaml.safe_load((ROOT / "_toc.yml").read_text())
             self.html, self.pages, self.built_here = (
                 full,
-                [toc["root"]] + _toc_files(toc),
+                [toc["root"]] + _toc_files(toc) + [API_MODULE_PAGE],
                 False,
             )
             return
         src = tmp / "src"
         (src / "book").mkdir(parents=True)
         (src / "notebooks").mkdir()
-        for f in ("paper.md", "references.bib"):
+        for f in ("paper.md", "references.bib", "api.md"):
             shutil.copy(ROOT / "book" / f, src / "book" / f)
+        # the package autodoc2 reads (_config.yml's autodoc2_packages, by its path)
+        os.symlink(ROOT / "acder_lite", src / "acder_lite")
         # chapter 1 writes its scene to the repo's book/_static/scenes (viz.scene_path),
         # as `make book` does
         os.symlink(ROOT / "book" / "_static", src / "book" / "_static")
@@ -244,7 +256,14 @@ class Book:
         (src / "_toc.yml").write_text(SMALL_TOC)
         self.html, self.pages, self.built_here = (
             src / "_build" / "html",
-            [MATH_PAGE, SCENE_CHAPTER, TABLE_CHAPTER, OUTPUTS_PAGE],
+            [
+                MATH_PAGE,
+                SCENE_CHAPTER,
+                TABLE_CHAPTER,
+                OUTPUTS_PAGE,
+                API_PAGE,
+                API_MODULE_PAGE,
+            ],
             True,
         )
         self.log = tmp / "build.log"
@@ -775,6 +794,14 @@ def test_built_book(browser, book, tmp_path):
     if book.built_here:  # its chapters' kernels talked over Unix sockets
         log = book.log.read_text(errors="replace")
         assert "Executed notebook" in log and "running over TCP" not in log, log[-3000:]
+        # (the small book's paper page links chapters it leaves out: those warnings are
+        # expected; none may come from the API reference)
+        api = [
+            line
+            for line in log.splitlines()
+            if "WARNING" in line and ("apidocs" in line or "api.md" in line)
+        ]
+        assert not api, "\n".join(api)
     bad = check_book(browser, book.html, book.pages, tmp_path / "screenshots")
     where = (
         "the small book built in " + str(book.html)

@@ -1,0 +1,43 @@
+"""The API reference's renderer (_config.yml's `autodoc2_render_plugin`; also a Sphinx
+extension, which only puts this folder on the path): sphinx-autodoc2's MyST renderer,
+except for the values of variables it could not read.
+
+autodoc2 0.5.0 reads the package statically (astroid) and keeps the value of a module's
+or a class's variable only when it is a constant or a tuple or list of constants. A call
+becomes the string "dict(...)", which its renderer quotes as if it were a string
+('dict(...)'); anything else (a dict, an expression, a dataclass field without a
+default) becomes None, which it prints as the value: `METHODS: dict[str, dict] = None`,
+`CellStat.env: str = None` (sphinx-autodoc2 issue #30, open). Here a call is shown
+unquoted, `dict(...)`, and an unread value not at all: the item shows its name, type and
+docstring. A default that is None in the source (`Config.epochs`) is left out too: its
+type says `| None` and its docstring what None means.
+"""
+
+from __future__ import annotations
+
+import re
+
+from autodoc2.render.myst_ import MystRenderer
+
+CALL = re.compile(r"[\w.]+\(\.\.\.\)")  # autodoc2's stand-in for a call's value
+
+
+class ApiRenderer(MystRenderer):
+    def render_data(self, item):
+        value = item.get("value")
+        lines = super().render_data(item)
+        for line in lines:
+            if line != ":value: >":
+                yield line
+                continue
+            shown = next(lines)  # the value, on the line after
+            if value is None:
+                continue
+            if isinstance(value, str) and CALL.fullmatch(value):
+                shown = f"   {value}"
+            yield line
+            yield shown
+
+
+def setup(app):
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
