@@ -9,8 +9,8 @@ becomes the string "dict(...)", which its renderer quotes as if it were a string
 default) becomes None, which it prints as the value: `METHODS: dict[str, dict] = None`,
 `CellStat.env: str = None` (sphinx-autodoc2 issue #30, open). Here a call is shown
 unquoted, `dict(...)`, and an unread value not at all: the item shows its name, type and
-docstring. A default that is None in the source (`Config.epochs`) is left out too: its
-type says `| None` and its docstring what None means.
+docstring. A value that is None in the source (`Config.epochs: int | None = None`) is
+told from an unread one by the item's source line, and shown.
 """
 
 from __future__ import annotations
@@ -20,6 +20,8 @@ import re
 from autodoc2.render.myst_ import MystRenderer
 
 CALL = re.compile(r"[\w.]+\(\.\.\.\)")  # autodoc2's stand-in for a call's value
+# a one-line assignment of None (`name = None`, `name: T = None`, a comment after)
+NONE_ASSIGNED = re.compile(r"^\s*[\w.]+\s*(:[^=]+)?=\s*None\s*(#.*)?$")
 
 
 class ApiRenderer(MystRenderer):
@@ -31,12 +33,27 @@ class ApiRenderer(MystRenderer):
                 yield line
                 continue
             shown = next(lines)  # the value, on the line after
-            if value is None:
+            if value is None and not self.assigned_none(item):
                 continue
             if isinstance(value, str) and CALL.fullmatch(value):
                 shown = f"   {value}"
             yield line
             yield shown
+
+    def assigned_none(self, item) -> bool:
+        """Whether the item's source is one line that assigns None (autodoc2 gives None
+        for that and for a value it could not read alike)."""
+        first, last = item.get("range", (0, -1))
+        if first != last:
+            return False
+        module = item["full_name"]
+        while (found := self.get_item(module)) is None or found["type"] != "module":
+            if "." not in module:
+                return False
+            module = module.rsplit(".", 1)[0]
+        with open(found["file_path"], encoding=found.get("encoding", "utf-8")) as f:
+            lines = f.read().splitlines()
+        return 0 < first <= len(lines) and bool(NONE_ASSIGNED.match(lines[first - 1]))
 
 
 def setup(app):

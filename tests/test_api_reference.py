@@ -82,3 +82,66 @@ def test_every_module_is_on_the_api_pages_map():
         "data flow ({py:mod}`name <acder_lite.name>`)"
     )
     assert not named - mods, f"{API_PAGE}.md names no module {sorted(named - mods)}"
+
+
+MODULE = '''"""A module."""
+from dataclasses import dataclass
+
+UNSET = None  # a constant that is None
+TABLE: dict = {"a": 1}
+MADE = dict(a=1)
+
+
+@dataclass
+class Row:
+    """A row."""
+
+    name: str
+    """No default."""
+    epochs: int | None = None
+    """None in the source."""
+'''
+
+
+def _rendered(tmp_path) -> dict[str, str | None]:
+    """Each data item of MODULE as ApiRenderer shows it: its value line, or None."""
+    import sys
+
+    from autodoc2.analysis import analyse_module
+    from autodoc2.config import Config
+    from autodoc2.db import InMemoryDb
+
+    sys.path.insert(0, str(ROOT / "jupyter-config"))
+    try:
+        from api_render import ApiRenderer
+    finally:
+        sys.path.remove(str(ROOT / "jupyter-config"))
+    (tmp_path / "mod.py").write_text(MODULE)
+    db = InMemoryDb()
+    for item in analyse_module(tmp_path / "mod.py", "mod"):
+        db.add(item)
+    renderer = ApiRenderer(db, Config())
+    shown = {}
+    for name in (
+        "mod.UNSET",
+        "mod.TABLE",
+        "mod.MADE",
+        "mod.Row.name",
+        "mod.Row.epochs",
+    ):
+        lines = list(renderer.render_data(db.get_item(name)))
+        at = [i for i, line in enumerate(lines) if line == ":value: >"]
+        shown[name] = lines[at[0] + 1].strip() if at else None
+    return shown
+
+
+def test_renderer_shows_what_the_source_assigns(tmp_path):
+    # autodoc2 gives None for a dict literal, a field without a default and a real None
+    # alike: the renderer shows None only where the source says it, a call unquoted
+    assert _rendered(tmp_path) == {
+        "mod.UNSET": "None",
+        "mod.TABLE": None,
+        "mod.MADE": "dict(...)",
+        "mod.Row.name": None,
+        "mod.Row.epochs": "None",
+    }
