@@ -79,11 +79,11 @@ class Trainer:
     curiosity model `cfg` asks for, then `train()` runs epochs of `train_cycle` (collect
     episodes, then `update_step`s) and `evaluate` until the stop rule or the budget.
 
-    With `out_dir` it writes the run folder as it goes (`runfiles.RunFiles`: config.json,
-    progress.csv a row an evaluation, policy.pt and checkpoint.pt after every epoch,
-    done.json at the end), and `state_dict`/`load_state_dict` are what a checkpoint
-    holds, so a resumed run goes on to the same numbers. `command` is recorded in
-    config.json (default: `sys.argv`).
+    With `out_dir` it writes the run folder as it goes (`runfiles.RunFiles`:
+    config.json, progress.csv a row an evaluation, policy.pt and checkpoint.pt after
+    every epoch, done.json at the end), and `state_dict`/`load_state_dict` are what a
+    checkpoint holds, so a resumed run goes on to the same numbers. `command` is
+    recorded in config.json (default: `sys.argv`).
     """
 
     def __init__(
