@@ -30,17 +30,34 @@ from .report import (
     paper_epochs,
     seed_level,
     separated,
+    threshold,
 )
-from .table import episodes, label, mean_text, ratio_text, task_label, units
+from .table import (
+    episodes,
+    label,
+    mean_text,
+    ratio_interval_text,
+    ratio_text,
+    task_label,
+    units,
+)
 from .words import and_join, count
 
 
 def ratio_sentence(r: RatioStat) -> str:
-    """One sentence on the HER/ACDER ratio of one task."""
+    """One sentence on the HER/ACDER ratio of one task. Where HER's mean curve ended
+    without crossing but ACDER's crossed, the ratio is only bounded below (`r.bound`,
+    HER's budget over ACDER's crossing), and the sentence says so."""
     paper = "" if r.paper is None else f"; the paper's is {r.paper:.1f}"
     where = task_label(r.env)
     if r.ours is None and r.bound is None:
         return f"on {where} there is no HER/ACDER ratio ({r.why}){paper}"
+    if r.ours is None:
+        return (
+            f"on {where} DDPG+HER's mean curve does not reach "
+            f"{threshold(r.env):.0%} within its budget, so our HER/ACDER ratio is "
+            f"only bounded: more than {r.bound:.1f}{ratio_interval_text(r)}{paper}"
+        )
     return f"on {where} our HER/ACDER ratio is {ratio_text(r)}{paper}"
 
 
@@ -48,7 +65,10 @@ def verdict(rs: list[RatioStat], cells: list[CellStat] | None = None) -> str:
     """Whether the paper's HER/ACDER ratio lies inside our 95% interval, task by task,
     and what that says about its factor of five. With `cells` (the summaries the ratios
     come from), a task whose HER or ACDER cell still has planned seeds to come is named
-    with its seed counts and the verdict is said to be provisional."""
+    with its seed counts and the verdict is said to be provisional. A task whose ratio
+    is only bounded below (HER not within budget, `RatioStat.bound`) is said apart: the
+    bound, and whether the paper's ratio lies above it (then the runs cannot say) or not
+    (then ACDER's advantage is larger here)."""
     text, partial = _verdict(rs), _still_training(rs, cells or [])
     if not partial:
         return text
@@ -65,7 +85,7 @@ def _still_training(rs: list[RatioStat], cells: list[CellStat]) -> list[str]:
     out = []
     for r in rs:
         her, acder = by.get((r.env, "her")), by.get((r.env, "acder"))
-        if not _read(r) or her is None or acder is None:
+        if not (_read(r) or _bounded(r)) or her is None or acder is None:
             continue
         if not (complete(her) and complete(acder)):
             counts = [
@@ -82,7 +102,33 @@ def _read(r: RatioStat) -> bool:
     return not (r.ours is None or r.paper is None or r.low is None or math.isnan(r.low))
 
 
+def _bounded(r: RatioStat) -> bool:
+    """Whether the task's ratio is only bounded below (HER's mean curve ended without
+    crossing, ACDER's crossed), with the paper's ratio to compare it to."""
+    return r.ours is None and r.bound is not None and r.paper is not None
+
+
+def _bound_sentence(r: RatioStat) -> str:
+    """What a ratio bounded below says against the paper's."""
+    head = (
+        f"On {task_label(r.env)} DDPG+HER's mean curve does not reach "
+        f"{threshold(r.env):.0%} within its budget, so our HER/ACDER ratio is only "
+        f"known to be more than {r.bound:.1f}"
+    )
+    if r.paper > r.bound:
+        return head + (
+            f"; the paper's {r.paper:.1f} lies above that bound, and the runs cannot "
+            "say whether ACDER's advantage there is as large as the paper's."
+        )
+    return head + (
+        f", which is above the paper's {r.paper:.1f}: there ACDER's advantage over HER "
+        "is larger here than in the paper."
+    )
+
+
 def _verdict(rs: list[RatioStat]) -> str:
+    bounded = " ".join(_bound_sentence(r) for r in rs if _bounded(r))
+    read = [task_label(r.env) for r in rs if _read(r)]
     where = {"inside": [], "above": [], "below": []}
     for r in rs:
         if not _read(r):
@@ -98,24 +144,31 @@ def _verdict(rs: list[RatioStat]) -> str:
             f"{task_label(r.env)} ({r.paper:.1f} against our {r.ours:.1f})"
         )
     if not any(where.values()):
+        if bounded:
+            return bounded
         return (
             "We cannot say yet whether the paper's factor of five reproduces: no task "
             "has both HER's and ACDER's mean curves past the threshold."
         )
     said = [f"{key} our 95% interval on {and_join(v)}" for key, v in where.items() if v]
     text = "The paper's HER/ACDER ratio lies " + "; ".join(said) + ". "
+    # with a bounded task beside them, the tasks read are named: "every task with a
+    # ratio" would take in the bounded one, which says something else
+    scope = f"On {and_join(read)}" if bounded else "On every task with a ratio"
+    there = " there" if bounded else ""
     if not where["inside"] and not where["below"]:
-        return (
-            text
-            + "On every task with a ratio, ACDER's advantage over HER is smaller here "
-            "than in the paper: its factor of five does not reproduce."
+        text += (
+            f"{scope}, ACDER's advantage over HER is smaller here than in the paper: "
+            f"its factor of five does not reproduce{there}."
         )
-    if not where["above"] and not where["below"]:
-        return (
-            text + "Our runs are consistent with the paper's factor "
-            "on every task with a ratio."
+    elif not where["above"] and not where["below"]:
+        text += (
+            "Our runs are consistent with the paper's factor "
+            f"{scope[:1].lower()}{scope[1:]}."
         )
-    return text + "The paper's factor reproduces on some tasks and not on others."
+    else:
+        text += "The paper's factor reproduces on some tasks and not on others."
+    return f"{text} {bounded}" if bounded else text
 
 
 def sentence(parts: list[str]) -> str:
@@ -223,15 +276,29 @@ def bonus_sentence(
     minibatches (progress.csv's r_int_mean) over each seed's `last` evaluations,
     averaged over seeds (`report.column_tail`), beside the clip eta of Eq. 4. A value
     near eta says most transitions get the clip: nearly a constant added to every
-    reward, not a ranking of states by novelty."""
+    reward, not a ranking of states by novelty. A cell with seeds not ended yet (a run
+    whose `ended` is None) is read as far as they got, and said to be: "0.67 so far
+    (2 of its 2 seeds unfinished)"."""
     parts = []
     for env in envs:
         vals = [(n, column_tail(runs, env, n, "r_int_mean", last)) for n in names]
-        vals = [f"{label(n)} {v:.2f}" for n, v in vals if v is not None]
+        vals = [
+            f"{label(n)} {v:.2f}{_so_far(runs, env, n)}"
+            for n, v in vals
+            if v is not None
+        ]
         if vals:
             eta = TASK_PRESETS[env]["eta"]
             parts.append(f"on {task_label(env)} (clip η = {eta}): {', '.join(vals)}")
     return sentence(parts) or "No curiosity method has an evaluation yet."
+
+
+def _so_far(runs: list[dict], env: str, name: str) -> str:
+    """' so far (1 of its 3 seeds unfinished)' for a cell with runs not ended (`ended`
+    None: training or interrupted), '' otherwise."""
+    mine = [r for r in runs if r["env"] == env and r["name"] == name]
+    k = sum("ended" in r and r["ended"] is None for r in mine)
+    return f" so far ({k} of its {count(len(mine), 'seed')} unfinished)" if k else ""
 
 
 def control_sentence(her: CellStat, icm: CellStat, bonus: CellStat) -> str:
@@ -531,15 +598,18 @@ def seed_ratio_sentence(rs: list[RatioStat]) -> str:
 
 def beside_paper_sentence(cells: list[CellStat], tasks=TASKS) -> str:
     """Our HER and ACDER mean-curve crossings beside the paper's numbers, for each task
-    where both cells have crossed."""
+    where both cells are read (`reached`: crossed, or every seed ended without a
+    crossing, which Table I's text says: "not within budget (100 epochs)")."""
     by = {(c.env, c.name): c for c in cells}
     parts = []
     for e in tasks:
         h, a = by.get((e, "her")), by.get((e, "acder"))
-        if h is None or a is None or None in (h.crossing, a.crossing):
+        if h is None or a is None or None in (reached(h), reached(a)):
             continue
         parts.append(
             f"on {task_label(e)}, DDPG+HER {mean_text(h)} against the paper's "
             f"{h.paper:,} and DDPG+ACDER {mean_text(a)} against its {a.paper:,}"
         )
-    return sentence(parts) or "No task has both crossings yet."
+    return sentence(parts) or (
+        "No task has both HER's and ACDER's mean curves crossed or ended yet."
+    )

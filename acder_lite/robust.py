@@ -58,6 +58,7 @@ from .perturb import (
     unit_of,
 )
 from .rollout import Policy, run_episodes
+from .table import task_label
 from .words import and_join, count
 
 NOISE_STREAM = 0xACDE
@@ -245,7 +246,8 @@ def weakest(result: dict) -> dict:
 
 def reading(label: str, result: dict | None) -> str:
     """One clause reading a bench: the policy `label`'s nominal count and its weakest
-    level ("not trained yet" for None)."""
+    level ("not trained yet" for None); every level tied for weakest is named, in the
+    table's order."""
     name = label.replace(" ", "-")
     if result is None:
         return f"the {name} policy is not trained yet"
@@ -257,10 +259,45 @@ def reading(label: str, result: dict | None) -> str:
     )
     if low["successes"] == nom["successes"]:
         return head + " and as often at every perturbed level"
-    return (
-        head + f" and in {low['successes']} at its weakest, "
-        f"`{low['knob']}` = {quantity(low['level'], low['unit'])}"
-    )
+    ties = [r for r in result["rows"] if r["successes"] == low["successes"]]
+    levels = [f"`{r['knob']}` = {quantity(r['level'], r['unit'])}" for r in ties]
+    return head + f" and in {low['successes']} at its weakest, " + and_join(levels)
+
+
+STAND_IN = "experiments/protocol-v1/"
+"""Where chapter 10's full-state column finds a policy while the grid's own run
+(results/<task>/acder/seed0) has not finished: the protocol-v1 run of the same method
+and seed."""
+
+
+def full_state_sentence(folders: dict[str, str | None]) -> str:
+    """Where each task's full-state policy comes from, in words (chapter 10): `folders`
+    maps a task to the folder `runs.finished_run` chose, relative to the repo, or None
+    (none finished). A folder under `STAND_IN` stands in for the grid's own run."""
+    by: dict[str, list[str]] = {"grid": [], "stand-in": [], "none": []}
+    for env, folder in folders.items():
+        if folder is None:
+            key = "none"
+        else:
+            key = "stand-in" if folder.startswith(STAND_IN) else "grid"
+        by[key].append(task_label(env))
+    if not by["stand-in"] and not by["none"]:
+        return "Every task's full-state policy is the grid's own run."
+    parts = []
+    if by["grid"]:
+        parts.append(
+            f"on {and_join(by['grid'])} the full-state policy is the grid's run"
+        )
+    if by["stand-in"]:
+        parts.append(
+            f"on {and_join(by['stand-in'])} the grid's run has not finished, and the "
+            "protocol-v1 run of the same method and seed stands in for it (chapter 8 "
+            "says what differs)"
+        )
+    if by["none"]:
+        parts.append(f"on {and_join(by['none'])} no full-state policy has finished")
+    text = "; ".join(parts)
+    return text[:1].upper() + text[1:] + "."
 
 
 def side_by_side(results: dict[str, dict]) -> str:

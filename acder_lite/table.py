@@ -207,17 +207,25 @@ def table_rows(cells: list[CellStat]) -> tuple[tuple, list[tuple]]:
 
 
 def ratio_text(r: RatioStat) -> str:
+    """The ratio table's cell of one task: '2.0 [1.8 – 3.5]', '> 3.2 (HER not within
+    budget) [2.0 – ∞]' where only a lower bound is known, else why there is none."""
     if r.ours is not None:
         text = f"{r.ours:.1f}"
     elif r.bound is not None:
         text = f"> {r.bound:.1f} ({r.why})"
     else:
         return r.why
-    if r.low is not None and not math.isnan(r.low):
-        # both ends may be inf (HER never crossing in every resample pair)
-        lo, hi = ("∞" if math.isinf(x) else f"{x:.1f}" for x in (r.low, r.high))
-        text += f" [{lo} – {hi}]"
-    return text
+    return text + ratio_interval_text(r)
+
+
+def ratio_interval_text(r: RatioStat) -> str:
+    """' [1.8 – 3.5]', the ratio's 95% interval as the ratio table writes it; '' where
+    there is none."""
+    if r.low is None or math.isnan(r.low):
+        return ""
+    # both ends may be inf (HER never crossing in every resample pair)
+    lo, hi = ("∞" if math.isinf(x) else f"{x:.1f}" for x in (r.low, r.high))
+    return f" [{lo} – {hi}]"
 
 
 def ratio_rows(rs: list[RatioStat]) -> tuple[tuple, list[tuple]]:

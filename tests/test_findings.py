@@ -145,6 +145,12 @@ def test_bonus_sentence_averages_each_seeds_last_evaluations():
     ]
     text = F.bonus_sentence(runs, ["FetchReach-v4", P], last=2)
     assert text == "On Push (clip η = 0.8): DDPG+HER+ICM 0.70, DDPG+ACDER 0.15."
+    # a seed not ended yet (ended None): the value is said to be so far
+    runs[0]["ended"], runs[1]["ended"] = None, "budget"
+    text = F.bonus_sentence(runs, [P], last=2)
+    assert "DDPG+HER+ICM 0.70 so far (1 of its 2 seeds unfinished), DDPG+ACDER" in text
+    runs[0]["ended"] = "stop rule"
+    assert "so far" not in F.bonus_sentence(runs, [P], last=2)
     assert F.bonus_sentence([], [P]) == "No curiosity method has an evaluation yet."
     # every evaluation (last=None): seeds (0.1 + 0.6 + 0.8) / 3 = 0.5 and 0.7 / 3 * 2
     want = (0.5 + 1.4 / 3) / 2
@@ -383,9 +389,63 @@ def test_seed_ratio_and_beside_paper_sentences():
         "On Push, DDPG+HER 1,160 against the paper's 11,600 and DDPG+ACDER 760 against "
         "its 2,200."
     )
+    # a cell whose seeds all ended without a crossing is said beside the paper's too
     never = curve_cell("acder", [0.0] * 4)
     assert F.beside_paper_sentence([her, never], tasks=(P,)) == (
-        "No task has both crossings yet."
+        "On Push, DDPG+HER 1,160 against the paper's 11,600 and DDPG+ACDER not within "
+        "budget (4 epochs) against its 2,200."
+    )
+    # one still training (no ended seed) is not: its crossing may still come
+    training = curve_cell("acder", [0.0] * 4, ended=None)
+    assert F.beside_paper_sentence([her, training], tasks=(P,)) == (
+        "No task has both HER's and ACDER's mean curves crossed or ended yet."
+    )
+
+
+def test_a_ratio_bounded_below_is_said_as_a_bound():
+    """Push: HER's two seeds end at 0.9 (no crossing within its 4 epochs), ACDER's cross
+    at 1.9 epochs: the ratio is more than 4 / 1.9 = 2.1, which the paper's 5.3 exceeds.
+    Reach beside it, read: HER at epoch 2, ACDER at 1, ratio 2.0 under the paper's 5.6.
+    The verdict names the task it reads (not "every task with a ratio", which would
+    take in Push) and says the bound apart; every HER resample is uncrossed, so the
+    ratio's interval is [∞ – ∞]."""
+    R = "FetchReach-v4"
+    her = curve_cell("her", [0.0, 0.5, 0.9, 0.9])
+    acder = curve_cell("acder", [0.5, 1.0, 1.0, 1.0])
+    reach = [
+        curve_cell("her", [0.5, 1.0, 1.0, 1.0], env=R),
+        curve_cell("acder", [1.0] * 4, env=R),
+    ]
+    rs = RE.ratios([her, acder] + reach, tasks=(R, P))
+    assert rs[1].ours is None and rs[1].bound == pytest.approx(4 / 1.9)
+    assert F.ratio_sentence(rs[1]) == (
+        "on Push DDPG+HER's mean curve does not reach 95% within its budget, so our "
+        "HER/ACDER ratio is only bounded: more than 2.1 [∞ – ∞]; the paper's is 5.3"
+    )
+    assert F.ratio_sentence(rs[0]).startswith("on Reach our HER/ACDER ratio is 2.0")
+    bound = (
+        "On Push DDPG+HER's mean curve does not reach 95% within its budget, so our "
+        "HER/ACDER ratio is only known to be more than 2.1; the paper's 5.3 lies above "
+        "that bound, and the runs cannot say whether ACDER's advantage there is as "
+        "large as the paper's."
+    )
+    assert F.verdict(rs) == (
+        "The paper's HER/ACDER ratio lies above our 95% interval on Reach (5.6 against "
+        "our 2.0). On Reach, ACDER's advantage over HER is smaller here than in the "
+        "paper: its factor of five does not reproduce there. " + bound
+    )
+    # the bound alone: said without "cannot say yet"
+    assert F.verdict(rs[1:]) == bound
+    # a bound above the paper's ratio: ACDER's advantage is larger here
+    high = RE.RatioStat(P, None, bound=6.0, paper=5.3, why="HER not within budget")
+    assert F.verdict([high]).endswith(
+        "more than 6.0, which is above the paper's 5.3: there ACDER's advantage over "
+        "HER is larger here than in the paper."
+    )
+    # HER's cell with planned seeds to come: the bounded task makes it provisional
+    her.planned = 5
+    assert F.verdict(rs[1:], [her, acder]).startswith(
+        "So far (Push: HER 2 of 5 seeds, ACDER 2 of 2): on Push DDPG+HER's"
     )
 
 

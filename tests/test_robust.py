@@ -13,8 +13,10 @@ from acder_lite import envs as E
 from acder_lite.config import ConfigError
 from acder_lite.perturb import KNOBS, nominal, parse_perturb
 from acder_lite.robust import (
+    STAND_IN,
     Bench,
     compare_stored,
+    full_state_sentence,
     load_policy,
     perturbed_policy,
     policy_act,
@@ -111,6 +113,30 @@ def test_side_by_side_puts_benches_in_columns():
     assert reading("p", hand) == (
         "the p policy succeeds in 3 of 3 trials unperturbed and in 1 at its weakest, "
         "`action_scale` = 0.8 x"
+    )
+    # two levels tied for weakest: both named, in the table's order
+    hand["rows"].append(
+        dict(knob="action_delay", level=2, unit="steps", nominal=False, successes=1)
+    )
+    assert reading("p", hand).endswith(
+        "in 1 at its weakest, `action_scale` = 0.8 x and `action_delay` = 2 steps"
+    )
+
+
+def test_full_state_sentence_names_the_stand_ins():
+    """Chapter 10's full-state column: the grid's run, the protocol-v1 stand-in while
+    the grid's has not finished, or none."""
+    R, P, PP = "FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4"
+    grid = {e: f"results/{e}/acder/seed0" for e in (R, P, PP)}
+    assert full_state_sentence(grid) == (
+        "Every task's full-state policy is the grid's own run."
+    )
+    mixed = dict(grid, **{P: f"{STAND_IN}{P}/acder/seed0", PP: None})
+    assert full_state_sentence(mixed) == (
+        "On Reach the full-state policy is the grid's run; on Push the grid's run has "
+        "not finished, and the protocol-v1 run of the same method and seed stands in "
+        "for it (chapter 8 says what differs); on Pick&Place no full-state policy has "
+        "finished."
     )
 
 
