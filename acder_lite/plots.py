@@ -102,6 +102,7 @@ def plot_mean_curves(
     """The mean curve of every folder name in `names` on `env`
     (runs of `runs.load_runs`).
 
+    The legend counts each cell's seeds and, while some have not ended, how many.
     Returns name -> status: "not run yet", or seeds, how far the mean reaches, its
     crossing."""
     labels, colors = labels or METHOD_LABELS, colors or COLORS
@@ -114,7 +115,9 @@ def plot_mean_curves(
             continue
         m = report.learning_curves(rs)[(env, name)]
         done = sum(r["ended"] is not None for r in rs)
-        label = f"{labels.get(name, name)} ({count(len(rs), 'seed')})"
+        # a cell still training says so in the legend: its curve will move
+        left = f", {len(rs) - done} unfinished" if done < len(rs) else ""
+        label = f"{labels.get(name, name)} ({count(len(rs), 'seed')}{left})"
         hit = draw_mean(ax, m, threshold, colors.get(name), label)
         ok = ~np.isnan(m.mean)
         reach = (

@@ -233,8 +233,12 @@ def test_plot_mean_curves_reads_the_mean_curve_and_says_its_status():
         "acder": "not run yet",
     }
     line = ax.get_lines()[0]
-    assert line.get_label() == "DDPG+HER (2 seeds)"
+    assert line.get_label() == "DDPG+HER (2 seeds, 1 unfinished)"
     np.testing.assert_allclose(line.get_ydata(), [0.6, 0.9, 1.0])
     status = plot_mean_curves(ax, runs[:1], "FetchPush-v4", ["her"])
     assert status["her"].startswith("1 seed, 1 done, mean curve to epoch 3")
+    labels = [
+        x.get_label() for x in ax.get_lines() if not x.get_label().startswith("_")
+    ]
+    assert labels[-1] == "DDPG+HER (1 seed)"  # every seed ended: no count of unfinished
     plt.close(fig)
