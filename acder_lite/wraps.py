@@ -140,7 +140,7 @@ def sentence(rows: list[dict], env: str) -> str:
 
     def means(rs):
         m = [r["step_share"] for r in rs]
-        return f"{min(m):.2%} to {max(m):.2%}"
+        return _span(min(m), max(m))
 
     def seeds(rs):
         return min(r["step_share_min"] for r in rs), max(
@@ -153,9 +153,15 @@ def sentence(rows: list[dict], env: str) -> str:
         f"On {task_label(env)}, the block turns through a wrap at {means(yes)} of the "
         f"test steps in {_cells(yes)} whose reward has a curiosity bonus (the mean "
         f"over a cell's seeds), at {means(no)} in {_cells(no)} without one; seed by "
-        f"seed the two {'do not overlap' if apart else 'overlap'} ({ylo:.2%} to "
-        f"{yhi:.2%} against {nlo:.2%} to {nhi:.2%})."
+        f"seed the two {'do not overlap' if apart else 'overlap'} "
+        f"({_span(ylo, yhi)} against {_span(nlo, nhi)})."
     )
+
+
+def _span(lo: float, hi: float) -> str:
+    """'1.48% to 3.23%', or '1.00%' where both ends print the same."""
+    a, b = f"{lo:.2%}", f"{hi:.2%}"
+    return a if a == b else f"{a} to {b}"
 
 
 def _cells(rows: list[dict]) -> str:

@@ -56,9 +56,10 @@ def test_summary_groups_cells_and_compares_the_two_kinds(tmp_path):
     header, body = W.table_rows(rows)
     assert len(header) == len(body[1]) and body[1][4] == "0.30% (0.20% - 0.40%)"
     text = W.sentence(rows, "FetchPush-v4")
-    assert "at 3.00% to 3.00% of the test steps in the one cell whose reward" in text
+    # one cell's mean is one number, not a range from it to itself
+    assert "at 3.00% of the test steps in the one cell whose reward" in text
     assert "at 0.10% to 0.30% in the 2 cells without one" in text
-    assert "do not overlap" in text
+    assert "do not overlap (3.00% against 0.10% to 0.40%)" in text
     # a seed without the bonus that wraps as often: the ranges overlap
     _write(a, "FetchPush-v4", "her", 2, "her", 0.05, 0.5)
     assert "seed by seed the two overlap" in W.sentence(
