@@ -95,6 +95,12 @@ def run_progress(
     return out
 
 
+def percent(share: float) -> str:
+    """A share as the book writes it: '10%', '2.5%', '0.3%' (3 significant digits at
+    most, no trailing zeros)."""
+    return f"{100 * share:.3g}%"
+
+
 def progress_sentence(
     label: str, seeds: list[dict], paper_epochs: int, started: bool = False
 ) -> str:
@@ -116,7 +122,7 @@ def progress_sentence(
             s["ended"], f"ended: {s['ended']}"
         )
         parts.append(
-            f"seed {s['seed']} reached {epoch}{planned} ({s['share']:.1%} of the "
+            f"seed {s['seed']} reached {epoch}{planned} ({percent(s['share'])} of the "
             f"paper's budget of {paper_epochs} epochs), test success "
             f"{s['success']:.2f} at its last epoch (best {s['best']:.2f}); {state}"
         )

@@ -33,7 +33,7 @@ def test_best_sentence_says_whether_any_run_reached_the_threshold():
 def test_progress_sentence_gives_each_seeds_last_epoch_and_best():
     s = progress_sentence("DDPG+HER", [seed(0.0375, 0.0)], 400)
     assert s == (
-        "DDPG+HER: seed 0 reached epoch 40 of the 40 planned (10.0% of the paper's "
+        "DDPG+HER: seed 0 reached epoch 40 of the 40 planned (10% of the paper's "
         "budget of 400 epochs), test success 0.00 at its last epoch (best 0.04); "
         "ended: budget."
     )
@@ -41,3 +41,15 @@ def test_progress_sentence_gives_each_seeds_last_epoch_and_best():
     assert progress_sentence("DDPG+HER", [], 400, started=True) == (
         "DDPG+HER: started, no evaluation yet."
     )
+
+
+def test_percent_drops_trailing_zeros():
+    from acder_lite.book_utils import percent
+
+    assert [percent(x) for x in (0.1, 0.025, 0.003, 1.0, 0.12345)] == [
+        "10%",
+        "2.5%",
+        "0.3%",
+        "100%",
+        "12.3%",
+    ]
