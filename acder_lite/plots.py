@@ -40,9 +40,9 @@ COLORS = {
 
 
 def draw_mean(ax, m: report.MeanCurve, threshold: float | None, color=None, label=None):
-    """One mean curve: solid where evaluated, dotted where carried forward, band of one
-    std, a dot at its first crossing of `threshold`. Returns the crossing (epochs) or
-    None."""
+    """One mean curve of test success: solid where evaluated, dotted where carried
+    forward, band of one std (within [0, 1]), a dot at its first crossing of
+    `threshold`. Returns the crossing (epochs) or None."""
     ok = ~np.isnan(m.mean)
     if not ok.any():
         return None
@@ -52,7 +52,9 @@ def draw_mean(ax, m: report.MeanCurve, threshold: float | None, color=None, labe
     if carried.any():
         ax.plot(x[max(j - 1, 0) :], y[max(j - 1, 0) :], ls=":", color=line.get_color())
     if m.n > 1:
-        ax.fill_between(x, y - s, y + s, color=line.get_color(), alpha=0.15, lw=0)
+        # a success rate lies in [0, 1]; mean +- std of rates can pass either end
+        lo, hi = np.clip(y - s, 0.0, 1.0), np.clip(y + s, 0.0, 1.0)
+        ax.fill_between(x, lo, hi, color=line.get_color(), alpha=0.15, lw=0)
     hit = (
         report.first_crossing(m.x, m.mean, threshold) if threshold is not None else None
     )

@@ -242,3 +242,27 @@ def test_plot_mean_curves_reads_the_mean_curve_and_says_its_status():
     ]
     assert labels[-1] == "DDPG+HER (1 seed)"  # every seed ended: no count of unfinished
     plt.close(fig)
+
+
+def test_the_band_of_a_success_rate_stays_within_0_and_1():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from acder_lite.plots import plot_mean_curves
+
+    # seeds at 1.0, 1.0 and 0.4 at the first evaluation: mean 0.8, one std above 1
+    runs = [
+        dict(env="FetchPush-v4", name="her", seed=k, ended="budget",
+             rows=[dict(epoch=1.0, episodes=400.0, test_success=v),
+                   dict(epoch=2.0, episodes=800.0, test_success=v)],
+             budget_epochs=2.0, episodes_per_epoch=400.0)
+        for k, v in enumerate([1.0, 1.0, 0.4])
+    ]  # fmt: skip
+    fig, ax = plt.subplots()
+    plot_mean_curves(ax, runs, "FetchPush-v4", ["her"])
+    (band,) = ax.collections
+    ys = np.concatenate([p.vertices[:, 1] for p in band.get_paths()])
+    assert ys.max() == 1.0 and ys.min() > 0.4  # clipped at 1, the lower side as drawn
+    plt.close(fig)
