@@ -569,19 +569,29 @@ def ablation_sentence(
 def separated_sentence(cells: list[CellStat], tasks=TASKS) -> str:
     """Which ablations the readings' rule (`report.separated`: each crossing outside
     the other's 95% interval) separates from full ACDER, task by task; a task is left
-    out until every planned seed of its ablations and of ACDER has ended."""
+    out, and named as such, until every planned seed of its ablations and of ACDER has
+    ended."""
     by = {(c.env, c.name): c for c in cells}
-    parts = []
+    parts, waiting = [], []
     for e in tasks:
         if (e, "acder") not in by or any((e, n) not in by for n in ABLATIONS):
             continue
         rule = {n: separated(by[e, n], by[e, "acder"]) for n in ABLATIONS}
-        if None not in rule.values():
-            parts.append(
-                f"on {task_label(e)}: "
-                + and_join([label(n) for n, s in rule.items() if s])
-            )
-    return sentence(parts) or "No task has all its ablations finished yet."
+        if None in rule.values():
+            waiting.append(task_label(e))
+            continue
+        parts.append(
+            f"on {task_label(e)}: " + and_join([label(n) for n, s in rule.items() if s])
+        )
+    if not parts:
+        return "No task has all its ablations finished yet."
+    if not waiting:
+        return sentence(parts)
+    return (
+        f"{sentence(parts)} {and_join(waiting)} "
+        f"{'is' if len(waiting) == 1 else 'are'} left out until "
+        "the seeds of its ablations and of full ACDER have all ended."
+    )
 
 
 def seed_ratio_sentence(rs: list[RatioStat]) -> str:

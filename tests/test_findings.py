@@ -373,6 +373,15 @@ def test_separated_sentence_names_the_ablations_the_rule_separates():
     also = curve_cell("acder-no-start-states", [0.5, 1.0, 1.0, 1.0])
     s = F.separated_sentence([acder, slow, same, also], tasks=(P,))
     assert s == "On Push: ACDER w/o curiosity.", s
+    # another task whose ablations are still training is named as left out
+    pp = "FetchPickAndPlace-v4"
+    later = [curve_cell(c.name, [0.5, 1.0], env=pp) for c in (acder, slow, same, also)]
+    later[1].planned = 3  # a seed still to come
+    s = F.separated_sentence([acder, slow, same, also] + later, tasks=(P, pp))
+    assert s == (
+        "On Push: ACDER w/o curiosity. Pick&Place is left out until the seeds of its "
+        "ablations and of full ACDER have all ended."
+    ), s
     also.planned = 3  # a seed still to come
     s = F.separated_sentence([acder, slow, same, also], tasks=(P,))
     assert s == "No task has all its ablations finished yet."
