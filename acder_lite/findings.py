@@ -54,9 +54,8 @@ def ratio_sentence(r: RatioStat) -> str:
         return f"on {where} there is no HER/ACDER ratio ({r.why}){paper}"
     if r.ours is None:
         return (
-            f"on {where} DDPG+HER's mean curve does not reach "
-            f"{threshold(r.env):.0%} within its budget, so our HER/ACDER ratio is "
-            f"only bounded: more than {r.bound:.1f}{ratio_interval_text(r)}{paper}"
+            f"on {where} {_her_not_within(r)} only bounded: more than "
+            f"{r.bound:.1f}{ratio_interval_text(r)}{paper}"
         )
     return f"on {where} our HER/ACDER ratio is {ratio_text(r)}{paper}"
 
@@ -108,12 +107,19 @@ def _bounded(r: RatioStat) -> bool:
     return r.ours is None and r.bound is not None and r.paper is not None
 
 
+def _her_not_within(r: RatioStat) -> str:
+    """Why a task's ratio is a bound, up to what is known of it."""
+    return (
+        f"DDPG+HER's mean curve does not reach {threshold(r.env):.0%} within its "
+        "budget, so our HER/ACDER ratio is"
+    )
+
+
 def _bound_sentence(r: RatioStat) -> str:
     """What a ratio bounded below says against the paper's."""
     head = (
-        f"On {task_label(r.env)} DDPG+HER's mean curve does not reach "
-        f"{threshold(r.env):.0%} within its budget, so our HER/ACDER ratio is only "
-        f"known to be more than {r.bound:.1f}"
+        f"On {task_label(r.env)} {_her_not_within(r)} only known to be more than "
+        f"{r.bound:.1f}"
     )
     if r.paper > r.bound:
         return head + (

@@ -15,6 +15,7 @@ told from an unread one by the item's source line, and shown.
 
 from __future__ import annotations
 
+import linecache
 import re
 
 from autodoc2.render.myst_ import MystRenderer
@@ -51,9 +52,8 @@ class ApiRenderer(MystRenderer):
             if "." not in module:
                 return False
             module = module.rsplit(".", 1)[0]
-        with open(found["file_path"], encoding=found.get("encoding", "utf-8")) as f:
-            lines = f.read().splitlines()
-        return 0 < first <= len(lines) and bool(NONE_ASSIGNED.match(lines[first - 1]))
+        # linecache reads each module once for all its items
+        return bool(NONE_ASSIGNED.match(linecache.getline(found["file_path"], first)))
 
 
 def setup(app):
