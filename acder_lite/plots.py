@@ -6,6 +6,8 @@ epochs with Table I's unit (400 episodes an epoch) on the top axis: the mean whe
 seed has a value, one standard deviation as the band, dotted where a seed stopped by the
 stop rule is carried forward, and a dot where the mean first reaches the threshold.
 Missing runs come back in the returned status ("not run yet"), never as an error.
+`seed_ends` says where each seed's curve ends; `plot_diagnostics` draws ACDER's
+diagnostics of one run.
 
 Trap: on FetchReach our epochs hold 80 episodes, so the top axis (Table I's unit) is not
 our episode count there; the x axis is epochs on every task, as in the paper's figures.
@@ -141,11 +143,101 @@ def plot_learning_curves(
     colors: dict | None = None,
     threshold: float | None = None,
 ) -> dict[str, str]:
-    """`plot_mean_curves` with the axes styled
-    (chapter 7 draws its Push runs with it)."""
+    """`plot_mean_curves` with the axes styled and the legend keyed: what the dashed
+    line, a dotted segment and a dot mean (chapter 7 draws its Push runs with it)."""
+    threshold = report.threshold(env) if threshold is None else threshold
     status = plot_mean_curves(ax, runs, env, methods, labels, colors, threshold)
-    style_axes(ax, report.threshold(env) if threshold is None else threshold)
+    for style, text in key_entries(threshold):
+        ax.plot([], [], color="gray", label=text, **style)
+    style_axes(ax, threshold)
     return status
+
+
+def key_entries(threshold: float) -> list[tuple[dict, str]]:
+    """The legend's key to `draw_mean`'s encodings, as (line style, text) pairs."""
+    return [
+        (dict(ls="--", lw=0.8), f"{threshold:.0%}, the threshold"),
+        (dict(ls=":"), "a stopped seed carried forward"),
+        (
+            dict(ls="", marker="o", ms=5),
+            f"the mean's first crossing of {threshold:.0%}",
+        ),
+    ]
+
+
+def seed_ends(runs: list[dict], env: str, name: str) -> list[dict]:
+    """How each seed of one (task, folder name) ended, in seed order: seed, `ended`
+    (`runs.how_it_ended`: None while training), `epoch` of its last evaluation,
+    `carried` (the mean curve carries it forward to the budget: stopped by the stop
+    rule) and `text`, e.g. 'seed 2: cut at epoch 18'.
+
+    A mean curve (`report.mean_curve`) is drawn where every seed has a value, so it ends
+    at the earliest `epoch` among the seeds not carried."""
+    out = []
+    for r in sorted(
+        (r for r in runs if r["env"] == env and r["name"] == name and r["rows"]),
+        key=lambda r: r["seed"],
+    ):
+        c = report.seed_curve(r["rows"], None, None, r.get("episodes_per_epoch"))
+        last = float(c.x[-1]) if len(c.x) else float("nan")
+        how = r["ended"] or "still training"
+        out.append(
+            dict(
+                seed=r["seed"],
+                ended=r["ended"],
+                epoch=last,
+                carried=r["ended"] == "stop rule",
+                text=f"seed {r['seed']}: {how} at epoch {last:g}",
+            )
+        )
+    return out
+
+
+DIAGNOSTICS = {
+    "r_int_mean": "mean $r^i$ (Eq. 4)",
+    "lambda_mean": "mean $\\lambda_r$ (Eq. 6)",
+    "alpha": "$\\alpha$ (Eq. 9)",
+    "novel_start_share": "share of novel starts",
+}
+"""ACDER's progress.csv diagnostics that `plot_diagnostics` draws, with their y labels.
+At each evaluation: r^i and lambda_r are means over the updates since the previous one,
+the share of novel starts is over its training episodes, alpha is its value then."""
+
+
+def plot_diagnostics(
+    rows: list[dict], eta: float, x: str = "episodes", title: str | None = None
+):
+    """One panel per ACDER diagnostic of `DIAGNOSTICS` against `x`, from progress rows
+    (`Trainer.train`'s or progress.csv's): r^i on a log axis with its clip `eta`
+    dashed, lambda_r on its range [1, 1.5] (Eq. 6), alpha and the share of novel
+    starts on [0, 1]. A column the rows lack leaves its panel saying so. Returns the
+    figure (with `title` above the panels)."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(8, 4.6), sharex=True)
+    for ax, (key, ylabel) in zip(axes.flat, DIAGNOSTICS.items()):
+        pts = [(r[x], r[key]) for r in rows if isinstance(r.get(key), (int, float))]
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        if not pts:
+            ax.text(0.5, 0.5, f"no {key}", ha="center", va="center",
+                    transform=ax.transAxes, color="gray")  # fmt: skip
+            continue
+        ax.plot(*zip(*pts), "o-", ms=3)
+        if key == "r_int_mean":
+            ax.axhline(eta, color="gray", ls="--", lw=0.8, label=f"$\\eta$ = {eta:g}")
+            ax.set_yscale("log")
+            ax.legend(fontsize=8)
+        elif key == "lambda_mean":
+            ax.set_ylim(0.975, 1.525)
+        else:
+            ax.set_ylim(-0.05, 1.05)
+    for ax in axes[-1]:
+        ax.set_xlabel("training episodes" if x == "episodes" else x)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
 
 
 def view_limit(runs: list[dict], env: str, names) -> float | None:

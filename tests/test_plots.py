@@ -1,0 +1,94 @@
+"""Chapter 7's figures: ACDER's diagnostics one panel each, the learning curves' legend
+keyed, and where each seed's curve ends (so where the mean curve ends)."""
+
+import matplotlib
+import numpy as np
+import pytest
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from acder_lite import plots  # noqa: E402
+
+
+def push_run(seed, values, ended, budget=50.0):
+    rows = [
+        dict(epoch=float(e), episodes=400.0 * e, test_success=v)
+        for e, v in enumerate(values, 1)
+    ]
+    return dict(env="FetchPush-v4", name="acder", seed=seed, rows=rows, ended=ended,
+                budget_epochs=budget, episodes_per_epoch=400.0)  # fmt: skip
+
+
+def test_diagnostics_one_panel_each_r_int_on_a_log_axis_with_eta():
+    rows = [
+        dict(episodes=4.0, r_int_mean=0.03, lambda_mean=1.13, alpha=0.78,
+             novel_start_share=0.0),
+        dict(episodes=8.0, r_int_mean=2e-4, lambda_mean=1.14, alpha=0.3,
+             novel_start_share=0.5),
+    ]  # fmt: skip
+    fig = plots.plot_diagnostics(rows, eta=0.05)
+    axes = fig.axes
+    assert len(axes) == 4
+    assert [a.get_ylabel() for a in axes] == list(plots.DIAGNOSTICS.values())
+    r_int = axes[0]
+    assert r_int.get_yscale() == "log"
+    np.testing.assert_allclose(r_int.get_lines()[0].get_ydata(), [0.03, 2e-4])
+    eta = [ln for ln in r_int.get_lines() if ln.get_linestyle() == "--"]
+    assert len(eta) == 1 and eta[0].get_ydata()[0] == 0.05
+    assert all(a.get_yscale() == "linear" for a in axes[1:])
+    assert axes[1].get_ylim()[0] < 1.0 < 1.5 < axes[1].get_ylim()[1]  # Eq. 6's range
+    assert [a.get_xlabel() for a in axes[2:]] == ["training episodes"] * 2
+    np.testing.assert_allclose(axes[3].get_lines()[0].get_ydata(), [0.0, 0.5])
+    plt.close(fig)
+
+
+def test_diagnostics_of_a_run_without_them_say_so():
+    fig = plots.plot_diagnostics([dict(episodes=4.0, test_success=0.5)], eta=0.05)
+    assert all(not a.get_lines() for a in fig.axes)
+    assert [t.get_text() for t in fig.axes[0].texts] == ["no r_int_mean"]
+    plt.close(fig)
+
+
+def test_learning_curves_legend_keys_the_threshold_dotted_and_dot():
+    runs = [push_run(0, [0.5, 0.9, 1.0], "budget", budget=3.0)]
+    fig, ax = plt.subplots()
+    plots.plot_learning_curves(ax, runs, "FetchPush-v4", ["acder"], threshold=0.95)
+    texts = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert texts == [
+        "DDPG+ACDER (1 seed)",
+        "95%, the threshold",
+        "a stopped seed carried forward",
+        "the mean's first crossing of 95%",
+    ]
+    plt.close(fig)
+
+
+def test_seed_ends_a_cut_seed_ends_the_mean_curve_a_stopped_one_is_carried():
+    """Seed 0 stopped by the stop rule at epoch 2 (carried forward to the budget),
+    seed 1 cut at epoch 3: the mean curve ends at epoch 3, the end of the cut seed."""
+    from acder_lite import report
+
+    runs = [
+        push_run(0, [0.9, 1.0], "stop rule"),
+        push_run(1, [0.5, 0.8, 0.9], "cut"),
+        push_run(2, [0.2], None),
+    ]
+    ends = plots.seed_ends(runs[:2], "FetchPush-v4", "acder")
+    assert [e["text"] for e in ends] == [
+        "seed 0: stop rule at epoch 2",
+        "seed 1: cut at epoch 3",
+    ]
+    assert [e["carried"] for e in ends] == [True, False]
+    m = report.learning_curves(runs[:2])[("FetchPush-v4", "acder")]
+    last = m.x[~np.isnan(m.mean)][-1]
+    assert last == min(e["epoch"] for e in ends if not e["carried"]) == 3.0
+    (training,) = plots.seed_ends(runs[2:], "FetchPush-v4", "acder")
+    assert training["text"] == "seed 2: still training at epoch 1"
+    assert plots.seed_ends(runs, "FetchPush-v4", "her") == []
+
+
+@pytest.mark.parametrize("threshold", [0.95, 1.0])
+def test_key_entries_name_the_threshold(threshold):
+    texts = [t for _, t in plots.key_entries(threshold)]
+    assert texts[0] == f"{threshold:.0%}, the threshold"
