@@ -291,15 +291,173 @@ def goal_factor_against_object(
 def clip_effect(familiar: float, new: float, name: str) -> tuple[str, bool]:
     """What a clip eta does to one S-ICM input's errors, in words (chapter 4), from
     the shares of familiar and of new transitions at or above it: (sentence, whether
-    it caps part of the errors, i.e. neither none of them nor most of either set)."""
-    if min(familiar, new) > 0.5:
+    it keeps the novelty gap).
+
+    The criterion is the start-state rule's, the one chapter 8 ("What S-ICM sees") and
+    book/departures.md (departure 6) apply to the paper's eta values: the rule ranks
+    the rows of successful episodes by their *clipped* r^i (Eq. 4), and the paper uses
+    the clip "to keep novelty gap between states". Every error at or above eta earns
+    the same r^i = eta, so a clip keeps that gap, i.e. still ranks states by novelty,
+    only where most errors fall below it:
+
+    - no error reaches it: it ranks every state and only bounds outliers not seen in
+      these errors (True);
+    - most of both sets fall below it, some reach it: it ranks the ones below and caps
+      the rest (True);
+    - most of either set reach it (a share above a half): curiosity is a flat bonus
+      there, and the "most novel" state a tie between rows at eta (False).
+    """
+    most = [k for k, v in (("familiar", familiar), ("new", new)) if v > 0.5]
+    if len(most) == 2:
         return (
-            f"most {name} errors sit at the clip, making curiosity a flat bonus",
+            f"most {name} errors sit at the clip, making curiosity a flat bonus that "
+            "ranks none of them",
+            False,
+        )
+    if most:
+        return (
+            f"most of the {most[0]} {name} errors sit at the clip, where they tie",
             False,
         )
     if max(familiar, new) == 0:
-        return f"no {name} error here reaches it, so the clip never acts", False
-    return f"the clip caps part of the {name} errors and leaves the rest below it", True
+        return (
+            f"no {name} error here reaches it, so it ranks every state and only bounds "
+            "outliers not seen here",
+            True,
+        )
+    return (
+        f"most {name} errors fall below it, which it ranks, and it caps the part "
+        "that reaches it",
+        True,
+    )
+
+
+def novelty_contrast(
+    medians: dict[str, list[float]],
+    at_clip: dict[str, tuple[float, float]],
+    eta: float,
+) -> dict[str, str]:
+    """Chapter 4's familiar-against-unseen comparison in words, from the numbers.
+
+    `medians`: per S-ICM input, the median errors of the familiar transitions, of
+    fresh exploration, then of one or more scripted excursions, in that order.
+    `at_clip`: per input, the shares of familiar and of new transitions at or above
+    the clip `eta`. Returns sentences (Markdown, no maths):
+
+    - `scripted`: whether the scripted excursions are predicted worse than both the
+      familiar transitions and fresh exploration, and their medians over the
+      familiar one;
+    - `new`: fresh exploration's median over the familiar one, and whether it comes
+      closer to it than every scripted excursion;
+    - `tail`: per input, which of familiar and new transitions reach the clip more
+      often (no leading capital: the chapter writes "At eta = ..., " before it);
+    - `summary`: the three in one sentence, without a capital or a full stop.
+    """
+    if not medians or any(len(m) < 3 for m in medians.values()):
+        raise ValueError(
+            "novelty_contrast: each input needs the medians of familiar, new and at "
+            "least one scripted set"
+        )
+
+    def times(v) -> str:
+        lo, hi = f"{min(v):.2g}", f"{max(v):.2g}"
+        return f"{lo} times" if lo == hi else f"{lo} to {hi} times"
+
+    def each(parts: list[tuple[str, str]]) -> str:  # (text, input) pairs
+        said = [f"{parts[0][0]} the familiar one on {parts[0][1]} inputs"]
+        return " and ".join(said + [f"{t} on {i} ones" for t, i in parts[1:]])
+
+    r = {i: np.asarray(m, np.float64) / m[0] for i, m in medians.items()}
+    over = [i for i, m in medians.items() if min(m[2:]) > max(m[:2])]
+    where = "the scripted excursions, which go where the buffer has never been,"
+    worse = "predicted worse than both the familiar transitions and fresh exploration"
+    if len(over) == len(r):
+        on = "on both inputs" if len(r) == 2 else "on all inputs"
+        lead, short = f"{on} {where} are {worse}", f"{on} the scripted excursions are"
+    else:
+        on = f"only on {' and '.join(over)} inputs" if over else "on no input"
+        lead, short = f"{on} are {where} {worse}", f"{on} are the scripted excursions"
+    scripted = (
+        f"{lead[0].upper()}{lead[1:]}: their median errors are "
+        + each([(times(v[2:]), i) for i, v in r.items()])
+        + "."
+    )
+    closer = all(v[1] < min(v[2:]) for v in r.values())
+    how = "comes closer" if closer else "does not come closer"
+    than = "any" if closer else "every"
+    new = (
+        f"Fresh exploration {how} to the familiar transitions than {than} scripted "
+        "excursion: its median error is "
+        + each([(f"{v[1]:.2g} times", i) for i, v in r.items()])
+        + "."
+    )
+    parts = []
+    for i, (f, n) in at_clip.items():
+        if f == n == 0:
+            parts.append(f"neither familiar nor new transitions reach it on {i} inputs")
+        elif f != n:
+            a, b, x, y = (
+                ("familiar", "new", f, n) if f > n else ("new", "familiar", n, f)
+            )
+            parts.append(
+                f"{a} transitions reach it more often than {b} ones on {i} inputs "
+                f"({x:.2g} against {y:.2g})"
+            )
+        else:
+            parts.append(
+                f"familiar and new transitions reach it equally often on {i} inputs "
+                f"({f:.2g})"
+            )
+    parts[0] = parts[0].replace("reach it", "reach the clip", 1)
+    tail = ", while ".join(parts)
+    summary = (
+        f"{short} {worse}; fresh exploration's median error is "
+        f"{times([v[1] for v in r.values()])} the familiar one; and at η = {eta:g}, "
+        f"{tail}"
+    )
+    return dict(scripted=scripted, new=new, tail=tail, summary=summary)
+
+
+def pool_positions(trainer, env=None) -> dict:
+    """The stored start states of the trainer's pool, and what they put where.
+
+    Returns `states` (n, state size), `goals` (n, goal size) and `r_int` (n,), as the
+    pool keeps them (oldest first), with `gripper` (n, 3), the gripper position each
+    state puts the arm at, `observation` (n, obs size), the env's observation there,
+    and `distinct`, the number of different states (the same row of a successful
+    episode can be offered again by a later minibatch). `env`: an env of the trainer's
+    task to set the states in (by default a new one); its own state is put back."""
+    if trainer.selector is None:
+        raise ConfigError(
+            f"method={trainer.cfg.method!r} has no start-state pool; allowed: acder, "
+            "acder-no-curiosity, acder-no-goal-factor"
+        )
+    pool = list(trainer.selector.pool)
+    env = E.make_env(trainer.cfg.env, seed=0) if env is None else env
+    n_state, n_goal = E.state_size(env), trainer.dims["g"]
+    n_obs = env._get_obs()["observation"].size
+    obs = []
+    saved = E.get_state(env)
+    for c in pool:
+        if c["state"].size != n_state:
+            raise CheckpointError(
+                f"the pool's states have {c['state'].size} numbers, not "
+                f"envs.STATE_SPEC's {n_state}; allowed: a checkpoint written "
+                "by this version"
+            )
+        E.set_state(env, c["state"])
+        obs.append(np.array(env._get_obs()["observation"], np.float64))
+    E.set_state(env, saved)
+    states = np.stack([c["state"] for c in pool]) if pool else np.zeros((0, n_state))
+    obs = np.array(obs).reshape(len(pool), n_obs)
+    return dict(
+        states=states,
+        goals=np.array([c["goal"] for c in pool], np.float64).reshape(-1, n_goal),
+        r_int=np.array([c["r_int"] for c in pool], np.float64),
+        observation=obs,
+        gripper=obs[:, :3],
+        distinct=int(len(np.unique(states, axis=0))) if pool else 0,
+    )
 
 
 def pool_profile(trainer, far: float = 0.2) -> dict:
@@ -311,41 +469,24 @@ def pool_profile(trainer, far: float = 0.2) -> dict:
     multi-step push) the distance is to the nearest block, and `blocks` gives, per
     block, the gripper's distance to it and the block's distance to its own target (the
     candidate's goal), with the share of candidates where the block is on its target
-    (within the env's distance_threshold).
+    (within the env's distance_threshold). The states are read by `pool_positions`.
     """
-    if trainer.selector is None:
-        raise ConfigError(
-            f"method={trainer.cfg.method!r} has no start-state pool; allowed: acder, "
-            "acder-no-curiosity, acder-no-goal-factor"
-        )
-    pool = list(trainer.selector.pool)
     env = E.make_env(trainer.cfg.env, seed=0)
+    P = pool_positions(trainer, env)
     k = n_objects(env)
     pos = object_fields(env, "pos") if k > 1 else None
-    grip, other, blocks, goals, r_int = [], [], [], [], []
-    for c in pool:
-        if c["state"].size != E.state_size(env):
-            raise CheckpointError(
-                f"the pool's states have {c['state'].size} numbers, not "
-                f"envs.STATE_SPEC's {E.state_size(env)}; allowed: a checkpoint written "
-                "by this version"
-            )
-        E.set_state(env, c["state"])
-        o = env._get_obs()["observation"]
-        grip.append(o[:3])
-        other.append(o[3:6] if env.has_object else c["goal"])
-        if pos is not None:
-            blocks.append([o[s] for s in pos])
-            goals.append(np.asarray(c["goal"], np.float64).reshape(k, 3))
-        r_int.append(c["r_int"])
+    obs, r_int, n = P["observation"], P["r_int"], len(P["r_int"])
+    grip = P["gripper"]
+    other = obs[:, 3:6] if env.has_object else P["goals"]
+    if pos is not None:
+        blocks = np.stack([obs[:, s] for s in pos], 1)  # (n, k, 3)
+        goals = P["goals"].reshape(n, k, 3)
     eta = trainer.cfg.eta
-    out = dict(size=len(pool), far=far, eta=eta)
-    if not pool:
+    out = dict(size=n, far=far, eta=eta)
+    if not n:
         return out
-    grip, other, r_int = np.array(grip), np.array(other), np.array(r_int)
     d = np.linalg.norm(grip - other, axis=1)
     if pos is not None:
-        blocks, goals = np.array(blocks), np.array(goals)  # (n, k, 3) each
         to_block = np.linalg.norm(blocks - grip[:, None], axis=-1)  # (n, k)
         to_target = np.linalg.norm(blocks - goals, axis=-1)
         d = to_block.min(axis=1)

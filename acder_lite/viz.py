@@ -339,6 +339,27 @@ def scene_from_recording(
     return vis
 
 
+def pool_scene(
+    env,
+    states: np.ndarray,
+    goals: np.ndarray,
+    markers: np.ndarray,
+    dt: float = 0.5,
+    color=(0.1, 0.7, 0.2),
+    radius: float = 0.008,
+):
+    """A Meshcat scene stepping through stored start states (chapter 6), one frame per
+    state `dt` seconds apart, each with its own goal, plus a sphere of `color` at every
+    point of `markers` (N, 3; e.g. each state's gripper position,
+    `diagnose.pool_positions`), all shown at once. Returns the visualizer."""
+    rec = record_states(env, states, goals, dt=dt)
+    markers = np.asarray(markers, float).reshape(-1, 3)
+    colors = np.tile(np.asarray(color, float), (len(markers), 1))
+    return scene_from_recording(
+        rec, markers=markers, marker_colors=colors, marker_radius=radius
+    )
+
+
 _MESHCAT_SERVER = """
 import sys
 import tornado.web

@@ -552,14 +552,87 @@ def test_goal_factor_against_object_by_hand():
 
 
 @pytest.mark.parametrize(
-    "familiar, new, said, caps",
+    "familiar, new, said, keeps",
     [
         (0.6, 0.9, "most raw errors sit at the clip", False),  # both above a half
-        (0.6, 0.4, "the clip caps part of the raw errors", True),  # one set below
-        (0.0, 0.0, "no raw error here reaches it", False),
-        (0.0, 0.01, "the clip caps part of the raw errors", True),  # a few reach it
+        (0.4, 0.6, "most of the new raw errors sit at the clip", False),
+        (0.6, 0.4, "most of the familiar raw errors sit at the clip", False),
+        (0.5, 0.5, "most raw errors fall below it", True),  # a half is not most
+        (0.0, 0.0, "no raw error here reaches it, so it ranks every state", True),
+        (0.0, 0.01, "most raw errors fall below it", True),  # a few reach it
     ],
 )
-def test_clip_effect_in_words(familiar, new, said, caps):
+def test_clip_effect_keeps_the_novelty_gap_where_most_errors_fall_below(
+    familiar, new, said, keeps
+):
+    """The start-state rule's criterion (chapter 8, departure 6): a clip that most
+    errors of either set reach makes their r^i a tie; one that none reaches still
+    ranks every state."""
     text, ok = D.clip_effect(familiar, new, "raw")
-    assert text.startswith(said) and ok is caps
+    assert text.startswith(said) and ok is keeps
+
+
+def test_novelty_contrast_says_what_the_numbers_show():
+    med = {"normalised": [0.08, 0.11, 3.5, 2.5], "raw": [7e-4, 1.1e-3, 3e-3, 7.4e-3]}
+    at = {"normalised": (0.035, 0.01), "raw": (0.0, 0.0)}
+    c = D.novelty_contrast(med, at, 0.8)
+    assert c["scripted"].startswith("On both inputs the scripted excursions")
+    assert "31 to 44 times the familiar one on normalised inputs" in c["scripted"]
+    assert "4.3 to 11 times on raw ones" in c["scripted"]
+    assert c["new"].startswith("Fresh exploration comes closer")
+    assert "1.4 times the familiar one on normalised inputs" in c["new"]
+    assert c["tail"] == (
+        "familiar transitions reach the clip more often than new ones on normalised "
+        "inputs (0.035 against 0.01), while neither familiar nor new transitions "
+        "reach it on raw inputs"
+    )
+    assert c["summary"].startswith("on both inputs the scripted excursions are")
+    assert "1.4 to 1.6 times the familiar one; and at η = 0.8, familiar" in c["summary"]
+    # a scripted set below fresh exploration; new transitions at the clip more often
+    med["raw"][2], at["raw"] = 1e-3, (0.1, 0.2)
+    c = D.novelty_contrast(med, at, 0.8)
+    assert c["scripted"].startswith("Only on normalised inputs are the scripted")
+    assert c["new"].startswith("Fresh exploration does not come closer")
+    assert c["tail"].endswith(
+        "new transitions reach it more often than familiar "
+        "ones on raw inputs (0.2 against 0.1)"
+    )
+    med["normalised"][3] = 0.05
+    assert D.novelty_contrast(med, at, 0.8)["summary"].startswith(
+        "on no input are the scripted excursions predicted worse"
+    )
+    with pytest.raises(ValueError, match="scripted"):
+        D.novelty_contrast({"raw": [1.0, 2.0]}, {"raw": (0.0, 0.0)}, 0.8)
+
+
+def test_pool_positions_read_each_stored_state_and_count_the_distinct_ones():
+    tr = _push_trainer()
+    env = tr.envs[0]
+    rng = np.random.default_rng(1)
+    grips = []
+    for k in range(4):
+        for _ in range(3):
+            E.step(env, rng.uniform(-1, 1, 4))
+        grips.append(env._get_obs()["observation"][:3].copy())
+        tr.selector.pool.append(
+            dict(state=E.get_state(env), goal=np.full(3, k), r_int=0.1 * k)
+        )
+    tr.selector.pool.append(dict(tr.selector.pool[1]))  # offered again
+    other = E.make_env("FetchPush-v4", seed=5)
+    before = E.get_state(other)
+    P = D.pool_positions(tr, other)
+    np.testing.assert_array_equal(E.get_state(other), before)  # put back
+    assert P["states"].shape == (5, E.state_size(env)) and P["distinct"] == 4
+    np.testing.assert_allclose(P["gripper"], np.array(grips)[[0, 1, 2, 3, 1]])
+    np.testing.assert_allclose(P["goals"][:, 0], [0, 1, 2, 3, 1])
+    np.testing.assert_allclose(P["r_int"], [0, 0.1, 0.2, 0.3, 0.1])
+    tr.selector.pool.clear()
+    P = D.pool_positions(tr)
+    assert P["states"].shape[0] == 0 and P["gripper"].shape == (0, 3)
+    assert P["distinct"] == 0 and D.pool_profile(tr) == dict(
+        size=0, far=0.2, eta=tr.cfg.eta
+    )
+    from acder_lite.config import ConfigError
+
+    with pytest.raises(ConfigError, match="no start-state pool"):
+        D.pool_positions(Trainer(tiny_config(env="FetchPush-v4", method="her")))

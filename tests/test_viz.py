@@ -98,6 +98,27 @@ def test_record_states_takes_one_goal_or_one_per_frame():
         viz.record_states(env, states, np.zeros(4))
 
 
+def test_pool_scene_steps_through_the_states_with_a_marker_each(tmp_path):
+    env = E.make_env("FetchReach-v4", seed=0)
+    states, goals = [], []
+    for k in range(3):
+        for _ in range(3):
+            E.step(env, np.array([0.5, -0.5, 0.5, 0.0]))
+        states.append(E.get_state(env))
+        goals.append(env.goal + 0.01 * k)
+    marks = np.array([[1.2, 0.7, 0.5], [1.3, 0.7, 0.5], [1.3, 0.8, 0.5]])
+    vis = viz.pool_scene(env, np.stack(states), np.stack(goals), marks, dt=0.5)
+    try:
+        html = vis.static_html()
+    finally:
+        viz.close_visualizer(vis)
+    objects = viz.scene_objects(html)
+    assert {f"/meshcat/fetch/markers/m{k}" for k in range(3)} <= objects
+    assert "/meshcat/fetch/target" in objects  # the goal, moving with the state
+    kinds = {c.get("type") for c in viz.scene_commands(html) if isinstance(c, dict)}
+    assert "set_animation" in kinds  # the arm and the goal move from state to state
+
+
 def test_show_scene_frames_the_book_path_and_labs_file_server():
     from acder_lite.viz import show_scene
 
