@@ -13,7 +13,7 @@ import os
 import sys
 
 from .config import Config, ConfigError, field_docs
-from .io import CheckpointError
+from .io import CheckpointError, checkpoint_config
 from .words import plural
 
 # Config fields that are not command-line options.
@@ -163,6 +163,7 @@ def cmd_train(args) -> int:
     if args.resume:
         _check_resume_folder(args.resume)
         _check_run_json(args.resume)  # before training: it is rewritten at the start
+        _check_run_file_kinds(args.resume, "--resume")
         ckpt_path = os.path.join(args.resume, "checkpoint.pt")
         ckpt = load_torch(ckpt_path) if os.path.exists(ckpt_path) else None
         later, note = packed.later_than(args.resume, ckpt)
@@ -191,7 +192,7 @@ def cmd_train(args) -> int:
                 f"checkpoint {ckpt_path!r} holds a policy only, not the training state "
                 "--resume needs; allowed: the checkpoint.pt that train writes"
             )
-        cfg = Config.from_dict({k: v for k, v in ckpt["config"].items()})
+        cfg = checkpoint_config(ckpt, ckpt_path)
         for k, v in given.items():
             if k in _RESUMABLE:
                 setattr(cfg, k, v)
@@ -207,6 +208,13 @@ def cmd_train(args) -> int:
         if ended:  # not an error, and no file is rewritten
             print(ended)
             return 0
+        try:
+            _probe_write(out)
+        except OSError as e:
+            raise UsageError(
+                f"train: --resume {out!r} cannot be written ({e.strerror}); "
+                "allowed: a run folder you can write to"
+            ) from None
         trainer = Trainer(cfg, out, command=_command_line(args.argv))
         try:
             trainer.load_state_dict(ckpt)
@@ -236,6 +244,7 @@ def cmd_train(args) -> int:
                 "checkpoint to continue from (killed in its first epoch?); allowed: "
                 "a new folder, or remove its progress.csv to start the run again"
             )
+        _check_run_file_kinds(args.out, "--out")
         cfg = Config(**given)
         cfg.resolve()  # the one-line error of a bad option, before a folder is made
         made = not os.path.exists(args.out)
@@ -370,12 +379,26 @@ def _drop_unsaved_run(out: str) -> list[str]:
     return gone
 
 
+_TOO_LARGE = (
+    "storage size calculation overflowed",  # torch: a tensor past int64 bytes
+    "array is too big",  # numpy: an array past the address space
+    "maximum allowed dimension exceeded",
+)
+"""What torch and numpy say (lower case) of a size no memory holds."""
+
+
 def _out_of_memory(e: BaseException) -> bool:
-    """numpy's MemoryError, or torch's allocator failing (a RuntimeError whose text
-    says it could not allocate)."""
+    """numpy's MemoryError, or torch's or MuJoCo's allocator failing (a RuntimeError,
+    or MuJoCo's ValueError or FatalError, whose text says it could not allocate
+    memory), or a size past what they can count (`_TOO_LARGE`)."""
     text = str(e).lower()
+    mujoco_fatal = type(e).__name__ == "FatalError"  # not imported for its class
     return isinstance(e, MemoryError) or (
-        isinstance(e, RuntimeError) and "allocate" in text and "memory" in text
+        (isinstance(e, (RuntimeError, ValueError)) or mujoco_fatal)
+        and (
+            ("allocate" in text and "memory" in text)
+            or any(t in text for t in _TOO_LARGE)
+        )
     )
 
 
@@ -394,11 +417,23 @@ def _make_run_folder(out: str) -> None:
             break
     try:
         os.makedirs(out, exist_ok=True)
+        _probe_write(out)
     except OSError as e:
         raise UsageError(
-            f"train: --out {out!r} cannot be made ({e.strerror}); "
+            f"train: --out {out!r} cannot be made or written ({e.strerror}); "
             "allowed: a folder you can write to"
         ) from None
+
+
+def _probe_write(folder: str) -> None:
+    """Make and remove a file in `folder` (OSError if it takes none). Trap: a folder
+    there already may take no file (/proc, read-only; os.access says yes to root),
+    which train's first write found only after the work, a traceback."""
+    import tempfile
+
+    fd, probe = tempfile.mkstemp(prefix=".probe.", suffix=".tmp", dir=folder)
+    os.close(fd)
+    os.unlink(probe)
 
 
 def _check_run_json(run: str) -> None:
@@ -436,6 +471,26 @@ def _check_run_json(run: str) -> None:
             f"{type(d['resumes']).__name__}, not a list; allowed: the config.json "
             "train wrote (fix it, or move it away to have it written anew)"
         )
+
+
+def _check_run_file_kinds(run: str, option: str) -> None:
+    """A run's file that is there as a folder (or a pipe, ...) is refused before
+    anything is trained. Trap: the atomic rename onto it failed only where train
+    writes it (an epoch's end, the run's end), a traceback after the work.
+    checkpoint.pt has its own lines (`load_torch`, "already holds a run")."""
+    from .io import RUN_FILES
+
+    for name in RUN_FILES:
+        path = os.path.join(run, name)
+        if (
+            name != "checkpoint.pt"
+            and os.path.exists(path)
+            and not os.path.isfile(path)
+        ):
+            raise UsageError(
+                f"train: {option} {run!r}: its {name} is not a file; allowed: the "
+                f"{name} train writes there, or none (move it away)"
+            )
 
 
 def cmd_eval(args) -> int:
@@ -585,7 +640,20 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+_SIZES = {
+    "train": "buffer_size, hidden, layers, batch_size, workers, pool_size",
+    "bench": "--workers",
+    "sweep": "buffer_size, hidden, layers, batch_size, workers, pool_size",
+    "eval": "--episodes",
+    "table": "--resamples",
+    "diagnose": "--batches, --episodes",
+    "robust": "--trials",
+}
+"""What a command's out-of-memory line names as the sizes to make smaller."""
+
+
 def main(argv: list[str] | None = None) -> int:
+    args = None
     try:
         args = build_parser().parse_args(argv)
         args.argv = argv
@@ -596,18 +664,19 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
-    except (MemoryError, RuntimeError) as e:
-        if not _out_of_memory(e):
-            raise
-        first = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
-        print(
-            f"error: out of memory ({first}); allowed: sizes this machine can hold "
-            "(buffer_size, hidden, batch_size, workers)",
-            file=sys.stderr,
-        )
-        return 2
     except BrokenPipeError:
         # the reader went away (`table | head`): stop quietly, and keep Python's own
         # flush at exit from failing again on the closed pipe
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    except Exception as e:
+        if not _out_of_memory(e):
+            raise
+        first = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
+        sizes = _SIZES.get(getattr(args, "cmd", None), _SIZES["train"])
+        print(
+            f"error: out of memory ({first}); allowed: sizes this machine can hold "
+            f"({sizes})",
+            file=sys.stderr,
+        )
+        return 2

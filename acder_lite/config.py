@@ -486,6 +486,9 @@ class Config:
                 continue
             if isinstance(v, bool) or not isinstance(v, kind[0]):
                 bad(f.name, kind[1])
+            # past int64 a size was torch's or numpy's traceback (seed: its own range)
+            if kind[0] is numbers.Integral and f.name != "seed" and v >= 2**63:
+                bad(f.name, "an integer below 2**63")
         if self.env not in ENV_IDS:
             bad("env", "one of " + ", ".join(ENV_IDS))
         if self.method in LEGACY_METHODS:
@@ -519,6 +522,8 @@ class Config:
                 continue
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 bad(name, "an integer >= 1")
+        if self.threads >= 2**31:  # torch.set_num_threads takes a C int
+            bad("threads", "an integer >= 1 below 2**31")
         # 0 test episodes: every evaluation a NaN (progress.csv, done.json, export)
         if not isinstance(self.test_episodes, int) or self.test_episodes < 1:
             bad("test_episodes", "an integer >= 1 (each evaluation's episodes)")

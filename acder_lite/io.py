@@ -487,6 +487,44 @@ def check_policy(d, path: str | None = None) -> None:
             bad(f"{k}.count is {st.get('count')!r}, not an integer >= 0")
 
 
+def checkpoint_config(ckpt: dict, path: str):
+    """The Config of a checkpoint (`load_torch`'s, with its training state) that
+    `train --resume` or `pack` reads, its fields and its progress checked first
+    (CheckpointError, one line naming `path`). Trap: both divide by its cycles and count
+    its progress before anything validates them; cycles=0 or a cycle 'x' was a
+    traceback there."""
+    from .config import Config, ConfigError
+
+    def bad(what):
+        raise CheckpointError(
+            f"checkpoint {path!r}: its {what}; allowed: the checkpoint.pt train writes"
+        )
+
+    try:
+        cfg = Config.from_dict(dict(ckpt["config"]))
+        cfg.validate()
+    except ConfigError as e:
+        bad(f"config: {e}")
+    except TypeError as e:  # a field of no such name, e.g. a number as a key
+        bad(f"config does not fit ({e})")
+    p = ckpt["progress"]
+    for k in ("cycle", "episodes", "env_steps"):
+        v = p.get(k)
+        if not isinstance(v, int) or isinstance(v, bool) or v < 0:
+            bad(f"progress.{k} is {v!r}, not an integer >= 0")
+    for k in ("wall", "success_rate"):
+        v = p.get(k)
+        if not isinstance(v, (int, float)) or isinstance(v, bool):
+            bad(f"progress.{k} is {v!r}, not a number")
+    if not isinstance(p.get("rows"), list) or not all(
+        isinstance(r, dict) for r in p["rows"]
+    ):
+        bad("progress.rows is not a list of rows (dicts)")
+    if not isinstance(p.get("done"), bool):
+        bad(f"progress.done is {p.get('done')!r}, not True or False")
+    return cfg
+
+
 def check_policy_fits(d: dict, path: str, obs: int, goal: int, act: int) -> None:
     """Raise CheckpointError unless the (checked) policy `d` takes observations of size
     `obs`, goals of size `goal` and gives actions of size `act` -- the sizes of the env

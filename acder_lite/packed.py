@@ -44,7 +44,13 @@ import torch
 
 from . import envs as E
 from .buffer import KEYS
-from .io import CheckpointError, arrays_as_tensors, atomic_write, load_torch
+from .io import (
+    CheckpointError,
+    arrays_as_tensors,
+    atomic_write,
+    checkpoint_config,
+    load_torch,
+)
 
 FOLDER = "checkpoint.packed"
 STATE = "state.pt.gz"
@@ -348,11 +354,23 @@ def pack_run(run_dir: Path) -> str:
     ckpt = load_torch(str(run_dir / "checkpoint.pt"))
     if "buffer" not in ckpt:
         raise CheckpointError(f"{str(run_dir)!r}: checkpoint.pt holds a policy only")
+    path = str(run_dir / "checkpoint.pt")
+    cycles = checkpoint_config(ckpt, path).cycles  # before anything is written
     later, note = later_than(run_dir, ckpt)
     if later:  # e.g. a checkpoint.pt left on this machine, a later pack from another
         return f"kept     {run_dir}/{FOLDER} (later than checkpoint.pt)"
-    w = pack(ckpt, folder)
-    epoch = ckpt["progress"]["cycle"] / ckpt["config"]["cycles"]
+    try:
+        w = pack(ckpt, folder)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as e:
+        if isinstance(e, CheckpointError):
+            raise
+        # a buffer of other keys or shapes; the packed folder's state.pt.gz, written
+        # last, still names the chunks it had (or there is none)
+        raise CheckpointError(
+            f"checkpoint {path!r}: its buffer is not one train writes "
+            f"({type(e).__name__}: {e}); allowed: the checkpoint.pt train writes"
+        ) from None
+    epoch = ckpt["progress"]["cycle"] / cycles
     return (
         f"packed   {run_dir} at epoch {epoch:g}: {w['episodes']} episodes "
         f"({w['new']} new), {w['bytes'] / 1e6:.1f} MB" + (f"; {note}" if note else "")
@@ -382,4 +400,12 @@ def run(args) -> int:
         except CheckpointError as e:
             failed += 1
             print(f"failed   {d}: {e}", file=sys.stderr, flush=True)
+        except OSError as e:  # a run folder that takes no file (read-only, full disk)
+            failed += 1
+            print(
+                f"failed   {d}: {FOLDER}/ cannot be written ({e.strerror}); "
+                "allowed: a run folder you can write to",
+                file=sys.stderr,
+                flush=True,
+            )
     return 2 if failed else 0

@@ -300,6 +300,11 @@ def _check_group(g: dict) -> str | None:
     for key in _TEXT_KEYS:
         if key in g and not isinstance(g[key], str):
             return f"{key} is {g[key]!r}, not a string; allowed: a string"
+    for key in ("root", "name", "same_as"):  # a NUL: a path no OS can make
+        if "\0" in g.get(key, ""):
+            return (
+                f"{key} {g[key]!r} holds a NUL character; allowed: a path without one"
+            )
     name = g.get("name")
     if name is not None and (name in ("", ".", "..") or "/" in name or "\\" in name):
         return f"name {name!r} is not one folder name; allowed: e.g. 'acder-raw'"

@@ -587,8 +587,10 @@ def run(args) -> int:
         raise ConfigError(
             f"tolerance={args.tolerance:g} is not allowed: a number > 0 (metres)"
         )
-    if args.threads < 1:
-        raise ConfigError(f"threads={args.threads} is not allowed: an integer >= 1")
+    if not 1 <= args.threads < 2**31:  # torch.set_num_threads takes a C int
+        raise ConfigError(
+            f"threads={args.threads} is not allowed: an integer >= 1 below 2**31"
+        )
     if args.obs is not None and args.obs not in OBS_SETS:
         allowed = " or ".join(repr(x) for x in OBS_SETS)
         raise ConfigError(f"obs={args.obs!r} is not allowed: {allowed}")

@@ -195,7 +195,8 @@ def check_args(args) -> str | None:
         extra = shlex.split(args.train_args or "")
     except ValueError as e:
         return f"--train-args cannot be parsed: {e}"
-    if any(a in ("--out", "--resume") for a in extra):
+    # --out=DIR too: after the cell's own --out, it sent every cell to DIR
+    if any(a.split("=", 1)[0] in ("--out", "--resume") for a in extra):
         return (
             "--train-args may not hold --out or --resume; the sweep sets them per cell"
         )

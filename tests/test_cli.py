@@ -72,6 +72,10 @@ def one_line_error(p, *needles):
         (["--alpha-base", "1"], ["alpha_base=1.0", "finite number > 1", "10e"]),
         (["--candidate-success", "all"], ["candidate_success", "'final'", "'any'"]),
         (["--intrinsic-timing", "now"], ["intrinsic_timing", "'before'", "'after'"]),
+        # past int64 (or torch's C int of threads): a traceback from torch or numpy
+        (["--hidden", str(10**23)], ["hidden=", "below 2**63"]),
+        (["--layers", str(10**23)], ["layers=", "below 2**63"]),
+        (["--threads", str(2**31)], ["threads=", "below 2**31"]),
     ],
 )
 def test_train_bad_input(cli, tmp_path, args, needles):
@@ -94,6 +98,9 @@ def test_an_out_that_cannot_be_a_run_folder(cli, tmp_path):
         one_line_error(p, *needles)
     p = cli("train", "--out", str(tmp_path / "a"), "--resume", str(tmp_path / "b"))
     one_line_error(p, "--out", "--resume", "exclude each other")
+    # a folder there already that takes no file: a traceback after the first epoch
+    p = cli("train", "--env", "FetchReach-v4", *TINY, "--out", "/proc")
+    one_line_error(p, "--out '/proc'", "cannot be made or written", "allowed:")
     assert f.read_text() == "keep me" and os.listdir(tmp_path) == ["notes.txt"]
     one_line_error(cli("bench", "--cycles", "0"), "cycles=0", ">= 1")
 
@@ -192,6 +199,28 @@ def _bad_input_on_a_finished_run(cli, tmp_path, out):
         p = cli("train", "--resume", str(broken), "--epochs", "2", "--quiet")
         one_line_error(p, "config.json", "allowed:")
         assert {f: (broken / f).read_bytes() for f in _files(broken)} == files
+    # a run file that is a folder: the rename onto it failed after the epoch, a
+    # traceback; a checkpoint whose config or progress train never writes, too
+    from acder_lite.io import arrays_as_tensors, load_torch, save_torch
+
+    for name in ("done.json", "progress.csv", "policy.pt", "cycles", "cycle"):
+        broken = tmp_path / "broken"
+        shutil.rmtree(broken, ignore_errors=True)
+        shutil.copytree(out, broken)
+        if name == "cycles" or name == "cycle":
+            d = load_torch(str(out / "checkpoint.pt"))
+            part, value = ("config", 0) if name == "cycles" else ("progress", "x")
+            d[part][name] = value
+            save_torch(str(broken / "checkpoint.pt"), arrays_as_tensors(d))
+            needles = [f"{name}=0" if name == "cycles" else "progress.cycle is 'x'"]
+        else:
+            (broken / name).unlink()
+            (broken / name).mkdir()
+            needles = [f"its {name} is not a file", "allowed:"]
+        files = {f: (broken / f).read_bytes() for f in _files(broken)}
+        p = cli("train", "--resume", str(broken), "--epochs", "2", "--quiet")
+        one_line_error(p, *needles)
+        assert {f: (broken / f).read_bytes() for f in _files(broken)} == files
     before = {f: (out / f).read_bytes() for f in os.listdir(out)}
     for args, needles in (
         (("export", str(out), "--out", str(keep)), ["out=", "already exists"]),
@@ -220,6 +249,13 @@ def _bad_input_on_a_finished_run(cli, tmp_path, out):
             ("robust", str(out), "--csv", str(out / "progress.csv")),
             ["csv=", "would overwrite a run's file"],
         ),
+        (("robust", str(out), "--threads", str(2**31)), ["threads=", "below 2**31"]),
+        # numpy's "Maximum allowed dimension exceeded": the out-of-memory line, naming
+        # the command's own size, not train's
+        (
+            ("table", "--results", str(out), "--resamples", str(10**23)),
+            ["out of memory", "allowed:", "(--resamples)"],
+        ),
     ):
         one_line_error(cli(*args), *needles)
     assert keep.read_text() == "an earlier export"
@@ -245,6 +281,56 @@ def test_a_buffer_too_large_for_memory_is_one_line_and_no_folder(cli, tmp_path):
     )
     one_line_error(p, "out of memory", "buffer_size")
     assert not out.exists()
+    # a size torch cannot count: "Storage size calculation overflowed", a traceback
+    p = cli(
+        *("train", "--env", "FetchReach-v4", *TINY, "--hidden", str(2**62)),
+        *("--out", str(out)),
+    )
+    one_line_error(p, "out of memory", "hidden")
+    assert not out.exists()
+
+
+def test_resume_into_a_folder_that_takes_no_file(tmp_path, capsys, monkeypatch):
+    """A read-only run folder (root writes anywhere but there): one line before
+    training, not a PermissionError at config.json's rewrite; an ended run still says
+    so."""
+    from acder_lite import cli
+
+    out = tmp_path / "run"
+    argv = ["train", "--env", "FetchReach-v4", "--epochs", "1", *TINY]
+    assert cli.main([*argv, "--out", str(out)]) == 0
+    before = {f: (out / f).read_bytes() for f in os.listdir(out)}
+
+    def refused(folder):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(cli, "_probe_write", refused)
+    capsys.readouterr()
+    assert cli.main(["train", "--resume", str(out), "--epochs", "2", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot be written" in err[0] and "--resume" in err[0]
+    assert cli.main(["train", "--resume", str(out)]) == 0  # ended: nothing to write
+    assert {f: (out / f).read_bytes() for f in os.listdir(out)} == before
+
+
+def test_out_of_memory_lines():
+    """What MuJoCo, torch and numpy raise when a size is too large counts as out of
+    memory (one line); anything else is not."""
+    from acder_lite.cli import _out_of_memory
+
+    class FatalError(Exception):  # mujoco.FatalError's name
+        pass
+
+    for e in (
+        ValueError("Error: engine error: Could not allocate memory"),
+        FatalError("Could not allocate memory"),
+        RuntimeError("Storage size calculation overflowed with sizes=[4, 13]"),
+        ValueError("array is too big; `arr.size * arr.dtype.itemsize` is larger"),
+        MemoryError(),
+    ):
+        assert _out_of_memory(e), e
+    for e in (ValueError("bad value"), RuntimeError("boom"), KeyError("memory")):
+        assert not _out_of_memory(e), e
 
 
 def test_ctrl_c_in_the_first_epoch_leaves_a_run_to_start_again(cli, tmp_path):

@@ -206,3 +206,49 @@ def test_pack_goes_on_past_a_run_it_cannot_pack(tmp_path, capsys):
     out, err = capsys.readouterr()
     assert f"failed   {bad}" in err and f"packed   {good}" in out
     assert packed.has_packed(good) and not packed.has_packed(bad)
+
+
+def test_pack_refuses_a_checkpoint_of_bad_config_progress_or_buffer(tmp_path, capsys):
+    """A checkpoint.pt whose config, progress or buffer train never writes (cycles=0,
+    no cycle, a buffer of other keys), or a run folder that takes no file: one line
+    each, exit 2, no packed state written (a ZeroDivisionError, KeyError or
+    PermissionError traceback before, after the pack was written)."""
+    import shutil
+
+    from acder_lite.io import arrays_as_tensors, save_torch
+
+    run = tmp_path / "run"
+    Trainer(tiny_config(epochs=2), str(run)).train(False, max_cycles=3)
+    for name, change, needle in (
+        ("cycles0", lambda c: c["config"].update(cycles=0), "cycles=0"),
+        ("nocycle", lambda c: c["progress"].pop("cycle"), "progress.cycle"),
+        ("buffer", lambda c: c.update(buffer={"a": 1}), "its buffer is not"),
+    ):
+        bad = tmp_path / name
+        shutil.copytree(run, bad)
+        d = load_torch(str(run / "checkpoint.pt"))
+        change(d)
+        save_torch(str(bad / "checkpoint.pt"), arrays_as_tensors(d))
+        capsys.readouterr()
+        assert main(["pack", str(bad)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and needle in err[0] and "allowed:" in err[0], err
+        assert not packed.has_packed(bad)
+        if name != "buffer":  # train --resume reads it the same way
+            assert main(["train", "--resume", str(bad), "--quiet"]) == 2
+            err = capsys.readouterr().err.strip().splitlines()
+            assert len(err) == 1 and needle in err[0], err
+
+    def refused(*a, **k):
+        raise PermissionError(1, "Operation not permitted")
+
+    capsys.readouterr()
+    orig = packed.pack
+    try:
+        packed.pack = refused  # a read-only run folder, as root sees one
+        assert main(["pack", str(run)]) == 2
+    finally:
+        packed.pack = orig
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot be written" in err[0], err
+    assert main(["pack", str(run)]) == 0

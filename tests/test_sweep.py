@@ -212,6 +212,15 @@ def test_train_argv(grid):
             ["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--out x"],
             "may not hold --out",
         ),
+        # after the cell's own --out, --out=DIR sent every cell to DIR
+        (
+            ["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--out=x"],
+            "may not hold --out",
+        ),
+        (
+            ["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--resume=x"],
+            "may not hold --out or --resume",
+        ),
         # checked as train reads them, before any cell starts and fails alike
         (
             ["--envs", "FetchReach-v4", "--methods", "her", "--train-args=--bogus 1"],
@@ -617,6 +626,12 @@ def test_read_plan(tmp_path):
             "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
             "config = { nope = 1 }\n",
             "config: unknown field 'nope'",
+        ),
+        # a dry run said "run" of a folder no OS can make
+        (
+            "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
+            'name = "a\\u0000b"\n',
+            "name 'a\\x00b' holds a NUL character",
         ),
     ],
 )
