@@ -23,20 +23,22 @@ def show_source(obj, lines: tuple[int, int] | None = None):
     return Markdown(f"`{where}`\n\n```python\n{src.rstrip()}\n```")
 
 
-def budgets(fast: bool, **pairs) -> dict:
+def budgets(fast: bool, trains: bool = True, **pairs) -> dict:
     """Pick each budget: `name=(full, fast)` -> value for this mode.
 
     Prints the table, and the precision `Config.update_dtype="auto"` picks on this CPU:
     the chapters train with the default, so a reader on another CPU sees why their
-    numbers differ from the rendered book's in the later digits."""
+    numbers differ from the rendered book's in the later digits. A chapter that trains
+    no network passes `trains=False` and gets the table only."""
     from .precision import choose_update_dtype
 
     chosen = {k: (v[1] if fast else v[0]) for k, v in pairs.items()}
     print(
         f"ACDER_FAST={int(fast)}: " + ", ".join(f"{k}={v}" for k, v in chosen.items())
     )
-    dtype, why = choose_update_dtype("auto")
-    print(f"network updates in {dtype} on this CPU ({why})")
+    if trains:
+        dtype, why = choose_update_dtype("auto")
+        print(f"network updates in {dtype} on this CPU ({why})")
     return chosen
 
 
@@ -69,9 +71,10 @@ def run_progress(
 
     One dict per seed with an evaluation: seed, epoch and episodes at its last
     evaluation, its test success there and its best, the epochs its command planned, how
-    it ended (`runs.how_ended`: None while there is no done.json) and `share`, its
+    it ended (`runs.how_ended`: None while there is no done.json), `share`, its
     training episodes over the paper's budget (`paper_epochs` epochs of
-    `paper_episodes_per_epoch` episodes)."""
+    `paper_episodes_per_epoch` episodes), and `tests`, `test_successes`: its test
+    episodes and their successes over all its evaluations (`evaluation_counts`)."""
     from .runs import how_ended
 
     out = []
@@ -80,6 +83,7 @@ def run_progress(
             continue
         last = r["rows"][-1]
         epoch = last.get("epoch")
+        k, n = evaluation_counts(r)
         out.append(
             dict(
                 seed=r["seed"],
@@ -90,15 +94,27 @@ def run_progress(
                 planned=r["planned_epochs"],
                 ended=how_ended(r),
                 share=last["episodes"] / (paper_epochs * paper_episodes_per_epoch),
+                tests=n,
+                test_successes=k,
             )
         )
     return out
 
 
-def percent(share: float) -> str:
-    """A share as the book writes it: '10%', '2.5%', '0.3%' (3 significant digits at
-    most, no trailing zeros)."""
-    return f"{100 * share:.3g}%"
+def evaluation_counts(run: dict) -> tuple[int, int]:
+    """(successes, episodes) of a run of `runs.load_runs` over all its evaluations:
+    each evaluation is `test_episodes` episodes per worker (`Trainer.evaluate`), so
+    its test success times that number is its count of successes."""
+    cfg = run["config"]
+    n = int(cfg["test_episodes"]) * int(cfg["workers"])
+    k = sum(round(row["test_success"] * n) for row in run["rows"])
+    return int(k), n * len(run["rows"])
+
+
+def percent(share: float, digits: int = 3) -> str:
+    """A share as the book writes it: '10%', '2.5%', '0.3%' (`digits` significant
+    digits at most, no trailing zeros)."""
+    return f"{100 * share:.{digits}g}%"
 
 
 def progress_sentence(
@@ -129,28 +145,133 @@ def progress_sentence(
     return f"{label}: " + "; ".join(parts) + "."
 
 
-def best_sentence(
-    progress: dict[str, list[dict]], threshold: float, random_success: float
-) -> str:
-    """What runs of `run_progress` (by label) show at their best, in one sentence: which
-    reached `threshold` at an evaluation, and the best test success of each method's
-    seeds beside a random arm's `random_success`; "" when there is no run."""
+def best_sentence(progress: dict[str, list[dict]], threshold: float) -> str:
+    """Whether runs of `run_progress` (by label) reached `threshold` at an evaluation,
+    in one sentence; "" when there is no run."""
     best = {
         lab: max(s["best"] for s in seeds) for lab, seeds in progress.items() if seeds
     }
     if not best:
         return ""
-    each = ", ".join(f"{v:.2f} for {lab}" for lab, v in best.items())
     hit = [lab for lab, v in best.items() if v >= threshold]
-    head = (
-        f"No run reached the {threshold:.0%} threshold at any evaluation"
-        if not hit
-        else f"Runs of {', '.join(hit)} reached the {threshold:.0%} threshold"
-    )
+    if not hit:
+        return f"No run reached the {threshold:.0%} threshold at any evaluation."
+    return f"Runs of {', '.join(hit)} reached the {threshold:.0%} threshold."
+
+
+def versus_chance(k: int, n: int, chance: float, z: float = 1.96) -> str:
+    """'above', 'below' or 'at': where k successes in n trials stand against a chance
+    rate, by the Wilson interval of k/n (z = 1.96: 95%; `robust.wilson_interval`):
+    above when the whole interval lies above `chance`, below when it lies below."""
+    from .robust import wilson_interval
+
+    lo, hi = wilson_interval(k, n, z)
+    return "above" if lo > chance else "below" if hi < chance else "at"
+
+
+def chance_sentence(progress: dict[str, list[dict]], solved: int, resets: int) -> str:
+    """Each method's test successes of `run_progress` (by label, its seeds pooled) over
+    all their evaluations, beside the chance level: the share of `resets` env resets
+    that start solved (`solved` of them). A rate is called above (below) chance only
+    when its 95% Wilson interval lies wholly above (below) that share
+    (`versus_chance`). "" when there is no run."""
+    from .robust import wilson_interval
+
+    chance = solved / resets
+    counts = {
+        lab: (sum(s["test_successes"] for s in seeds), sum(s["tests"] for s in seeds))
+        for lab, seeds in progress.items()
+        if seeds
+    }
+    if not counts:
+        return ""
+    each, verdict = [], {}
+    for lab, (k, n) in counts.items():
+        lo, hi = wilson_interval(k, n)
+        each.append(
+            f"{lab} succeeded in {k:,} of {n:,} test episodes ({percent(k / n, 2)}; "
+            f"95% interval {percent(lo, 2)} to {percent(hi, 2)})"
+        )
+        verdict.setdefault(versus_chance(k, n, chance), []).append(lab)
+    words = {
+        "at": "at chance, as many successes as episodes that start solved would give",
+        "above": "above chance",
+        "below": "below chance, fewer successes than the episodes that start solved",
+    }
+    said = [
+        f"{' and '.join(labs)} {'is' if len(labs) == 1 else 'are'} {words[v]}"
+        for v in ("above", "at", "below")
+        if (labs := verdict.get(v))
+    ]
     return (
-        f"{head}: the best test success was {each}, against {random_success:.2f} "
-        "for a random arm."
+        f"Over all their evaluations {' and '.join(each)}. Both blocks already start "
+        f"on their targets in {percent(chance, 2)} of the env's resets ({solved:,} of "
+        f"{resets:,}, no step taken): taking a rate as above or below that chance "
+        "level only when its 95% Wilson interval lies wholly above or below it, "
+        f"{'; '.join(said)}."
     )
+
+
+def solved_starts_sentence(run: dict, label: str, solved) -> str:
+    """One run of `runs.load_runs` beside its replayed test starts: `solved`, per
+    evaluation, how many of its test episodes started with the task already solved
+    (`multistep.solved_test_starts`). Says how many started so, its successes, and at
+    how many evaluations the two counts are equal."""
+    n = int(run["config"]["test_episodes"]) * int(run["config"]["workers"])
+    wins = [round(row["test_success"] * n) for row in run["rows"]]
+    same = sum(int(w == int(x)) for w, x in zip(wins, solved))
+    return (
+        f"{label} seed {run['seed']}: {int(sum(solved)):,} of its "
+        f"{n * len(wins):,} test episodes started with both blocks on their targets, "
+        f"and it had {sum(wins):,} successes; the two counts are equal at {same} of "
+        f"its {len(wins)} evaluations."
+    )
+
+
+ACDER_PARTS = ("pool_size", "alpha", "novel_start_share", "train_success")
+ACDER_PARTS += ("r_int_mean", "lambda_mean")
+"""The progress.csv columns `acder_parts` averages: what ACDER's parts did."""
+
+
+def acder_parts(rows: list[dict], first_epoch: float = 2.0) -> dict:
+    """The mean of each `ACDER_PARTS` column over a run's progress rows from epoch
+    `first_epoch` on (at the first evaluation the start pool is still filling), with
+    `first` and `last`, the epochs averaged over; {} when no row is that late."""
+    late = [r for r in rows if (r.get("epoch") or 0) >= first_epoch]
+    if not late:
+        return {}
+    out = {k: sum(float(r[k]) for r in late) / len(late) for k in ACDER_PARTS}
+    return dict(out, first=late[0]["epoch"], last=late[-1]["epoch"])
+
+
+def acder_parts_sentence(parts: dict, verdict: str, seed=None) -> str:
+    """`acder_parts` of a run (of seed `seed`, if given) in words, with what its test
+    success shows beside the chance level (`versus_chance`'s 'above', 'at' or
+    'below'); "" for no parts."""
+    if not parts:
+        return ""
+    p = parts
+    who = "Averaged" if seed is None else f"Seed {seed}, averaged"
+    head = (
+        f"{who} over epochs {p['first']:g} to {p['last']:g}: its start pool held "
+        f"{p['pool_size']:.0f} candidates, taken from minibatch rows of training "
+        f"episodes that ended in success ({percent(p['train_success'], 2)} of them "
+        f"did); Eq. 9's $\\alpha$ was {p['alpha']:.2f} and "
+        f"{percent(p['novel_start_share'], 2)} of its training episodes restarted from "
+        "a pooled state. Curiosity's reward "
+        f"$r^i$ averaged {p['r_int_mean']:.4f} a transition, beside the "
+        f"$\\lambda \\cdot (-1)$ of every step short of success ($\\lambda$ "
+        f"averaged {p['lambda_mean']:.2f})."
+    )
+    tail = {
+        "at": " The parts were at work, changing where and on what it trained, but "
+        "its test success stayed at chance: nothing it learnt shows at test.",
+        "above": " Its test success is above chance: it learnt something that shows "
+        "at test.",
+        "below": " Its test success is below chance: fewer successes than the "
+        "episodes that start solved would give.",
+    }
+    return head + tail[verdict]
 
 
 def seed_crossings(

@@ -180,13 +180,16 @@ PUSH_BEHIND = 0.065
 (half a block and the fingers)."""
 PUSH_LIFT = 0.07
 """Scripted pusher: height above the blocks while moving round one."""
+PUSH_DONE = 0.02
+"""Scripted pusher: a block within this distance (metres, in xy) of its target is left
+alone; the pusher takes the first block farther than this."""
 
 
 def scripted_push(o: np.ndarray, g: np.ndarray, height_offset: float) -> np.ndarray:
     """One action of a scripted pusher (nothing learnt), for one observation vector `o`
-    (40) and goal `g` (6), re-planned every step: take the first block more than 2 cm
-    from its target, get behind it on the line target -> block (flying above the
-    blocks whenever it moves to a new spot), lower to the block's height
+    (40) and goal `g` (6), re-planned every step: take the first block more than
+    `PUSH_DONE` from its target, get behind it on the line target -> block (flying
+    above the blocks whenever it moves to a new spot), lower to the block's height
     (`height_offset`, the env's), push; then the other block. It shows the task can be
     solved in 100 steps (tests/test_multistep.py, chapter 9)."""
     # the full observation only, not a selection
@@ -194,7 +197,7 @@ def scripted_push(o: np.ndarray, g: np.ndarray, height_offset: float) -> np.ndar
         raise ValueError(f"scripted_push: o (40,) and g (6,), got {o.shape}, {g.shape}")
     grip = o[:3]
     ag, g = o[3:9].reshape(2, 3), g.reshape(2, 3)  # object{0,1}_pos (OBS_LAYOUT)
-    todo = [i for i in range(2) if np.linalg.norm(ag[i, :2] - g[i, :2]) > 0.02]
+    todo = [i for i in range(2) if np.linalg.norm(ag[i, :2] - g[i, :2]) > PUSH_DONE]
     a = np.zeros(4)
     if not todo:
         return a
@@ -245,7 +248,8 @@ def pusher_successes(seeds, horizon: int = MAX_EPISODE_STEPS) -> np.ndarray:
 def random_counts(episodes: int, seed: int = 0, workers: int = 4) -> dict:
     """A uniformly random arm's episodes (rounded down to a multiple of `workers`),
     stepped as training steps them: dict(episodes, success = the share with both blocks
-    on their targets at the last step, one = the share with at least one there)."""
+    on their targets at the last step, one = the share with at least one there, and
+    n_success, n_one: the same as counts of episodes)."""
     from .envs import make_env
     from .rollout import run_episodes
 
@@ -262,7 +266,55 @@ def random_counts(episodes: int, seed: int = 0, workers: int = 4) -> dict:
     for e in envs:
         e.close()
     succ, one = np.concatenate(succ), np.concatenate(one)
-    return dict(episodes=succ.size, success=succ.mean(), one=one.mean())
+    return dict(
+        episodes=succ.size,
+        success=succ.mean(),
+        one=one.mean(),
+        n_success=int(succ.sum()),
+        n_one=int(one.sum()),
+    )
+
+
+def start_on_targets(seeds, resets: int) -> dict:
+    """Which episodes start already solved: for an env made with each seed of `seeds`
+    (`envs.make_env`, whose seeding reset is not counted), `resets` further resets, no
+    step. dict(both: both blocks within distance_threshold of their targets at reset,
+    the env's own success rule `envs.successes`; one: at least one block so), bool
+    arrays (resets, len(seeds)) in reset order.
+
+    A policy that never moves a block succeeds on the `both` episodes and on no other:
+    the chance level of test success (chapter 9)."""
+    from .envs import make_env, successes
+
+    envs = [make_env(ENV_ID, seed=s) for s in seeds]
+    both = np.zeros((resets, len(envs)), bool)
+    one = np.zeros_like(both)
+    for t in range(resets):
+        for i, env in enumerate(envs):
+            obs, _ = env.reset()
+            ag, g = obs["achieved_goal"], obs["desired_goal"]
+            both[t, i] = successes(env, ag, g)
+            one[t, i] = (block_distances(ag, g) < env.distance_threshold).any()
+    for env in envs:
+        env.close()
+    return dict(both=both, one=one)
+
+
+def trainer_test_seeds(seed: int, workers: int) -> list[int]:
+    """The seeds `trainer.Trainer` gives a run's test envs (`seed * 1000 + 500 + i`,
+    one per worker), so that a run's test episodes can be replayed."""
+    return [seed * 1000 + 500 + i for i in range(workers)]
+
+
+def solved_test_starts(config: dict, evaluations: int) -> np.ndarray:
+    """For a run of this task with `config` (config.json's "config": seed, workers,
+    test_episodes), how many of each evaluation's test episodes start with both blocks
+    on their targets, for its first `evaluations` evaluations (`Trainer.evaluate`
+    resets each test env `test_episodes` times per evaluation, and nothing else draws
+    from their random streams). Shape (evaluations,)."""
+    seeds = trainer_test_seeds(config["seed"], config["workers"])
+    both = start_on_targets(seeds, evaluations * config["test_episodes"])["both"]
+    return both.reshape(evaluations, -1).sum(axis=1)
 
 
 class MujocoFetchPushMultiStepEnv(MujocoFetchEnv, EzPickle):

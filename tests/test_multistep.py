@@ -373,6 +373,61 @@ def test_the_books_pusher_and_random_counts():
     assert wins.dtype == bool and wins.shape == (3,) and wins.sum() >= 2
     a, b = M.random_counts(4, seed=0), M.random_counts(4, seed=0)
     assert a == b and a["episodes"] == 4 and 0 <= a["success"] <= a["one"] <= 1
+    assert a["n_success"] == round(4 * a["success"]) and a["n_one"] == round(
+        4 * a["one"]
+    )
+
+
+def test_start_on_targets_is_the_envs_success_rule_at_reset():
+    """Chapter 9's chance level: episodes that start solved, seeded; `both` is the env's
+    own `_is_success` right after reset, `one` at least one block within the
+    threshold."""
+    got = M.start_on_targets([0, 1], 300)
+    assert got["both"].shape == got["one"].shape == (300, 2)
+    again = M.start_on_targets([0, 1], 300)
+    assert (got["both"] == again["both"]).all() and (got["one"] == again["one"]).all()
+    assert not (got["both"] & ~got["one"]).any()
+    assert 0 < got["one"].mean() < 0.5 and got["both"].mean() < 0.05
+    env = E.make_env(ID, seed=1)  # replayed by hand: env 1's resets
+    for t in range(300):
+        obs, _ = env.reset()
+        ok = env._is_success(obs["achieved_goal"], obs["desired_goal"])
+        d = M.block_distances(obs["achieved_goal"], obs["desired_goal"])
+        assert got["both"][t, 1] == bool(ok)
+        assert got["one"][t, 1] == bool((d < env.distance_threshold).any())
+
+
+def test_the_trainers_test_envs_are_replayed():
+    """`trainer_test_seeds` is the trainer's rule: its test envs reset to the same goals
+    as envs made with those seeds; `solved_test_starts` counts per evaluation."""
+    from acder_lite.trainer import Trainer
+    from conftest import tiny_config
+
+    cfg = tiny_config(env=ID, method="her", seed=3, workers=2)
+    tr = Trainer(cfg)
+    seeds = M.trainer_test_seeds(3, 2)
+    assert seeds == [3500, 3501]
+    for env, s in zip(tr.test_envs, seeds):
+        mine = E.make_env(ID, seed=s)
+        np.testing.assert_array_equal(env.goal, mine.goal)
+        np.testing.assert_array_equal(
+            env.reset()[0]["desired_goal"], mine.reset()[0]["desired_goal"]
+        )
+    per = M.solved_test_starts(dict(seed=3, workers=2, test_episodes=5), 4)
+    both = M.start_on_targets(seeds, 20)["both"]
+    assert per.shape == (4,)
+    np.testing.assert_array_equal(per, both.reshape(4, 10).sum(axis=1))
+
+
+def test_the_pusher_leaves_a_block_within_push_done():
+    """A block within `PUSH_DONE` of its target is left alone: with both so, the
+    pusher does nothing."""
+    env = E.make_env(ID, seed=0)
+    o, g = env._get_obs()["observation"].copy(), env.goal.copy()
+    o[3:9] = g + np.r_[0.9, 0, 0, 0, 0.9, 0] * M.PUSH_DONE
+    np.testing.assert_array_equal(M.scripted_push(o, g, env.height_offset), 0.0)
+    o[3:9] = g + np.r_[1.1, 0, 0, 0, 0, 0] * M.PUSH_DONE
+    assert np.abs(M.scripted_push(o, g, env.height_offset)).sum() > 0
 
 
 def test_block_distances_by_hand():
