@@ -247,7 +247,7 @@ def acder_parts(rows: list[dict], first_epoch: float = 2.0) -> dict:
 def acder_parts_sentence(parts: dict, verdict: str, seed=None) -> str:
     """`acder_parts` of a run (of seed `seed`, if given) in words, with what its test
     success shows beside the chance level (`versus_chance`'s 'above', 'at' or
-    'below'); "" for no parts."""
+    'below'); "" for no parts. Unicode, not maths: glued Markdown renders no $...$."""
     if not parts:
         return ""
     p = parts
@@ -256,12 +256,11 @@ def acder_parts_sentence(parts: dict, verdict: str, seed=None) -> str:
         f"{who} over epochs {p['first']:g} to {p['last']:g}: its start pool held "
         f"{p['pool_size']:.0f} candidates, taken from minibatch rows of training "
         f"episodes that ended in success ({percent(p['train_success'], 2)} of them "
-        f"did); Eq. 9's $\\alpha$ was {p['alpha']:.2f} and "
+        f"did); Eq. 9's α was {p['alpha']:.2f} and "
         f"{percent(p['novel_start_share'], 2)} of its training episodes restarted from "
-        "a pooled state. Curiosity's reward "
-        f"$r^i$ averaged {p['r_int_mean']:.4f} a transition, beside the "
-        f"$\\lambda \\cdot (-1)$ of every step short of success ($\\lambda$ "
-        f"averaged {p['lambda_mean']:.2f})."
+        "a pooled state. Curiosity's reward averaged "
+        f"{p['r_int_mean']:.4f} a transition, beside the -λ of every step short of "
+        f"success (λ averaged {p['lambda_mean']:.2f})."
     )
     tail = {
         "at": " The parts were at work, changing where and on what it trained, but "
