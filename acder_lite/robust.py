@@ -36,7 +36,7 @@ import os
 import numpy as np
 
 from . import envs as E
-from .config import ENV_IDS, OBJECT_ENVS, OBS_SETS, ConfigError
+from .config import ENV_IDS, OBJECT_ENVS, OBS_SETS, Config, ConfigError
 from .io import (
     CheckpointError,
     check_output,
@@ -59,7 +59,7 @@ from .perturb import (
 )
 from .rollout import Policy, run_episodes
 from .table import task_label
-from .words import and_join, count
+from .words import and_join, count, plural
 
 NOISE_STREAM = 0xACDE
 """First word of the noise generator's seed, [NOISE_STREAM, seed]: trial 0's env is
@@ -238,6 +238,121 @@ def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return mid - half, mid + half
 
 
+def told_apart(a: tuple[int, int], b: tuple[int, int], z: float = 1.96) -> bool:
+    """Whether two counts (successes, trials) are told apart: their Wilson intervals
+    (`wilson_interval`, z = 1.96: 95%) do not overlap."""
+    (lo_a, hi_a), (lo_b, hi_b) = wilson_interval(*a, z), wilson_interval(*b, z)
+    return hi_a < lo_b or hi_b < lo_a
+
+
+def separating_gap(n: int, z: float = 1.96) -> dict | None:
+    """How many trials apart two counts out of `n` must be to be told apart
+    (`told_apart`): for each count k the least d with k and k + d apart; `least` and
+    `most` of these over k, each with a pair (k, k + d) that needs it (`least`'s the
+    lowest such k, `most`'s the one nearest the middle of the range). None when no two
+    counts of n are apart (n <= 3 at 95%)."""
+    need = {}
+    for k in range(n + 1):
+        d = next(
+            (d for d in range(1, n - k + 1) if told_apart((k, n), (k + d, n), z)), None
+        )
+        if d is not None:
+            need[k] = d
+    if not need:
+        return None
+    least, most = min(need.values()), max(need.values())
+    at_most = [k for k, d in need.items() if d == most]
+    k_most = min(at_most, key=lambda k: abs(2 * k + most - n))  # nearest the centre
+    k_least = min(k for k, d in need.items() if d == least)
+    return dict(
+        least=least,
+        most=most,
+        least_pair=(k_least, k_least + least),
+        most_pair=(k_most, k_most + most),
+    )
+
+
+def separated_rows(bench: dict[tuple[str, str], dict], z: float = 1.96) -> list[dict]:
+    """The rows (task, knob, level) where two columns of a task are told apart
+    (`told_apart`): `bench` maps (task, column label) to a `run_bench` result, as
+    chapter 10's BENCH. Every pair of a task's columns (in the order met) is compared
+    on the (knob, level) rows both ran; the nominal rows of a task are the same trials
+    under every knob, so only the first is kept.
+
+    One dict per separated row, in the tasks' and the table's order: env, knob, level,
+    unit, nominal, and counts: [(label, successes, trials), (label, ...)]."""
+    tasks: dict[str, list[str]] = {}
+    for env, label in bench:
+        tasks.setdefault(env, []).append(label)
+    out = []
+    for env, labels in tasks.items():
+        for i, a in enumerate(labels):
+            for b in labels[i + 1 :]:
+                rows_b = {(r["knob"], r["level"]): r for r in bench[env, b]["rows"]}
+                seen_nominal = False
+                for ra in bench[env, a]["rows"]:
+                    rb = rows_b.get((ra["knob"], ra["level"]))
+                    if rb is None or (ra["nominal"] and seen_nominal):
+                        continue
+                    seen_nominal = seen_nominal or ra["nominal"]
+                    ka, kb = (
+                        (ra["successes"], ra["trials"]),
+                        (rb["successes"], rb["trials"]),
+                    )
+                    if told_apart(ka, kb, z):
+                        out.append(
+                            dict(
+                                env=env,
+                                knob=ra["knob"],
+                                level=ra["level"],
+                                unit=ra["unit"],
+                                nominal=ra["nominal"],
+                                counts=[(a, *ka), (b, *kb)],
+                            )
+                        )
+    return out
+
+
+def separation_sentence(n: int, rows: list[dict]) -> str:
+    """Chapter 10's reading of its bench's resolution: how many trials apart two counts
+    out of `n` must be to be told apart (`separating_gap`), and which rows of
+    `separated_rows` are ("none" when none is)."""
+    gap = separating_gap(n)
+    if gap is None:
+        head = (
+            f"At {count(n, 'trial')} a level no two counts are told apart (their 95% "
+            "Wilson intervals always overlap)"
+        )
+    else:
+        (a, b), (c, d) = gap["least_pair"], gap["most_pair"]
+        head = (
+            f"At {count(n, 'trial')} a level, two counts are told apart (their 95% "
+            f"Wilson intervals do not overlap) only when they are at least "
+            f"{gap['least']} trials apart near an end of the range ({a} against {b} of "
+            f"{n})"
+        )
+        if gap["most"] > gap["least"]:
+            head += f" and {gap['most']} in its middle ({c} against {d})"
+    if not rows:
+        return head + "; no row of the bench separates a task's two columns."
+    parts = []
+    for r in rows:
+        where = (
+            "unperturbed"
+            if r["nominal"]
+            else f"`{r['knob']}` = {quantity(r['level'], r['unit'])}"
+        )
+        counts = ", ".join(f"{lab} {k}/{m}" for lab, k, m in r["counts"])
+        parts.append(f"{task_label(r['env'])} {where} ({counts})")
+    which = "the one row" if len(rows) == 1 else f"the {len(rows)} rows"
+    verb = "is" if len(rows) == 1 else "are"
+    return (
+        head
+        + f"; {which} of the bench that separates its columns {verb} "
+        + (and_join(parts) + ".")
+    )
+
+
 def weakest(result: dict) -> dict:
     """The row of `result` (a `run_bench` result) with the fewest successes; the first
     such row, in the table's order, on a tie."""
@@ -298,6 +413,85 @@ def full_state_sentence(folders: dict[str, str | None]) -> str:
         parts.append(f"on {and_join(by['none'])} no full-state policy has finished")
     text = "; ".join(parts)
     return text[:1].upper() + text[1:] + "."
+
+
+def _trained(run: dict) -> str:
+    """'19 epochs (7,600 episodes)': how far a run of `runs.read_run` got."""
+    last = run["rows"][-1]
+    ep, n = last["epoch"], int(last["episodes"])
+    return f"{ep:g} {plural(ep, 'epoch')} ({count(n, 'episode')})"
+
+
+def training_clause(label: str, run: dict | None) -> str:
+    """How the run of a column of chapter 10 trained, in words: `run` is
+    `runs.read_run` of its folder (None: not trained yet). Its first crossing is where
+    its test-success curve over training episodes, read between evaluations
+    (`report.first_crossing`), first reaches its stop rule's threshold; then how it
+    ended (`runs.how_ended`) and, unless by the stop rule, its last test success."""
+    from .report import first_crossing, threshold
+    from .runs import how_ended
+
+    name = label.replace(" ", "-")
+    if run is None or not run["rows"]:
+        return f"the {name} policy is not trained yet"
+    rule = (run["done_info"] or {}).get("stop_rule") or {}
+    cfg = run["config"]
+    thr = float(
+        rule.get("success_threshold")
+        or cfg.get("success_threshold")
+        or threshold(run["env"])
+    )
+    patience = rule.get("patience", cfg.get("stop_patience"))
+    if patience is None:
+        patience = Config().stop_patience
+    x = [r["episodes"] for r in run["rows"]]
+    y = [r["test_success"] for r in run["rows"]]
+    hit = first_crossing(x, y, thr)
+    crossed = (
+        f"first reached {thr:.2f} at {hit:,.0f} episodes"
+        if hit is not None
+        else f"never reached {thr:.2f}"
+    )
+    trained, last = _trained(run), run["rows"][-1]["test_success"]
+    held = f"held {thr:.2f} for {count(patience, 'evaluation')}"
+    ended = how_ended(run)
+    if ended == "early stop":
+        tail = f"stopped once it had {held}, after {trained}"
+    elif ended == "full budget":
+        tail = (
+            f"never {held}: it used its whole budget, {trained}, and ended at "
+            f"{last:.2f}"
+        )
+    elif ended is None:
+        tail = f"is still training ({trained} so far, at {last:.2f})"
+    else:
+        tail = f"ended before its budget after {trained}, at {last:.2f}"
+    return f"the {name} run's test success {crossed}, and the run {tail}"
+
+
+def training_sentence(runs: dict[str, dict | None]) -> str:
+    """`training_clause` of each column of a task ({column label: run or None}),
+    joined."""
+    return "; ".join(training_clause(label, run) for label, run in runs.items())
+
+
+def lengths_sentence(env: str, runs: dict[str, dict | None]) -> str:
+    """Whether a task's columns ({column label: `runs.read_run` or None}) trained
+    for as many episodes, in one sentence."""
+    task = task_label(env)
+    if any(r is None or not r["rows"] for r in runs.values()):
+        return f"Not every {task} column is trained: there are no lengths to compare."
+    episodes = {r["rows"][-1]["episodes"] for r in runs.values()}
+    if len(episodes) == 1:
+        one = _trained(next(iter(runs.values())))
+        return f"The {task} policies trained as long, {one} each."
+    each = ", ".join(
+        f"the {label.replace(' ', '-')} one {_trained(r)}" for label, r in runs.items()
+    )
+    return (
+        f"The {task} policies did not train as long: {each}, so a difference between "
+        "their columns is one of training as well as of state."
+    )
 
 
 def side_by_side(results: dict[str, dict]) -> str:

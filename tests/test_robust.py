@@ -21,7 +21,14 @@ from acder_lite.robust import (
     perturbed_policy,
     policy_act,
     run_bench,
+    lengths_sentence,
+    separated_rows,
+    separating_gap,
+    separation_sentence,
     side_by_side,
+    told_apart,
+    training_clause,
+    training_sentence,
     weakest,
     wilson_interval,
     reading,
@@ -149,6 +156,149 @@ def test_wilson_interval_hand_worked():
     )
     lo, hi = wilson_interval(20, 20)
     assert hi == pytest.approx(1.0) and 0.8 < lo < 0.85
+
+
+def test_told_apart_and_the_gap_it_takes_at_20_trials():
+    # chapter 10's bench: gaps of 4 or 5 trials overlap, 7 against 17 does not
+    assert not told_apart((4, 20), (9, 20)) and not told_apart((15, 20), (20, 20))
+    assert told_apart((7, 20), (17, 20)) and told_apart((17, 20), (7, 20))
+    gap = separating_gap(20)
+    assert (gap["least"], gap["most"]) == (7, 9)
+    assert gap["least_pair"] == (0, 7) and gap["most_pair"] == (5, 14)
+    # each the least gap at its k: one trial fewer overlaps
+    assert told_apart((0, 20), (7, 20)) and not told_apart((0, 20), (6, 20))
+    assert told_apart((5, 20), (14, 20)) and not told_apart((5, 20), (13, 20))
+    assert all(  # and no k needs more than 9
+        told_apart((k, 20), (k + 9, 20)) for k in range(12)
+    )
+    assert separating_gap(3) is None  # 0 of 3 and 3 of 3 overlap at 95%
+    four = separating_gap(4)
+    assert (four["least"], four["most"], four["least_pair"]) == (4, 4, (0, 4))
+
+
+def _bench(*rows):
+    """A hand-made `run_bench` result: rows (knob, level, successes) of 20 trials."""
+    return dict(
+        rows=[
+            dict(
+                knob=k,
+                level=v,
+                unit=KNOBS[k].unit,
+                nominal=v == KNOBS[k].nominal,
+                successes=s,
+                trials=20,
+            )
+            for k, v, s in rows
+        ]
+    )
+
+
+def test_separated_rows_lists_the_rows_whose_columns_are_told_apart():
+    P, PP = "FetchPush-v4", "FetchPickAndPlace-v4"
+    bench = {
+        (P, "full state"): _bench(
+            ("obs_noise", 0.0, 0), ("obs_noise", 0.02, 7), ("mass", 1.0, 0)
+        ),
+        (P, "simplified state"): _bench(
+            ("obs_noise", 0.0, 20), ("obs_noise", 0.02, 17), ("mass", 1.0, 20)
+        ),
+        (PP, "full state"): _bench(("obs_noise", 0.02, 4), ("friction", 2.0, 20)),
+        (PP, "simplified state"): _bench(("obs_noise", 0.02, 9)),
+    }
+    rows = separated_rows(bench)
+    # the nominal row once (mass = 1 is the same trials), friction only in one column
+    assert [(r["env"], r["knob"], r["level"]) for r in rows] == [
+        (P, "obs_noise", 0.0),
+        (P, "obs_noise", 0.02),
+    ]
+    assert rows[1]["counts"] == [("full state", 7, 20), ("simplified state", 17, 20)]
+    text = separation_sentence(20, rows[1:])
+    assert text.startswith(
+        "At 20 trials a level, two counts are told apart (their 95% Wilson intervals "
+        "do not overlap) only when they are at least 7 trials apart near an end of "
+        "the range (0 against 7 of 20) and 9 in its middle (5 against 14); "
+    )
+    assert text.endswith(
+        "the one row of the bench that separates its columns is Push `obs_noise` = "
+        "0.02 m (full state 7/20, simplified state 17/20)."
+    )
+    assert "the 2 rows" in separation_sentence(20, rows)
+    assert "Push unperturbed (full state 0/20" in separation_sentence(20, rows)
+    assert separation_sentence(20, []).endswith(
+        "; no row of the bench separates a task's two columns."
+    )
+    assert separation_sentence(4, []).startswith(
+        "At 4 trials a level, two counts are told apart (their 95% Wilson intervals "
+        "do not overlap) only when they are at least 4 trials apart near an end of "
+        "the range (0 against 4 of 4);"
+    )
+    assert "no two counts are told apart" in separation_sentence(2, [])
+
+
+def _run(success, ended, stop_reason, epochs_per_row=1, per_epoch=400):
+    """A hand-made `runs.read_run` result of FetchPush (threshold 0.95, patience 5)."""
+    rows = [
+        dict(
+            epoch=(i + 1) * epochs_per_row, episodes=(i + 1) * per_epoch, test_success=s
+        )
+        for i, s in enumerate(success)
+    ]
+    done = (
+        None
+        if ended is None
+        else dict(
+            stop_reason=stop_reason,
+            stop_rule=dict(success_threshold=0.95, patience=5),
+        )
+    )
+    return dict(
+        env="FetchPush-v4",
+        rows=rows,
+        config=dict(success_threshold=0.95, stop_patience=5),
+        done_info=done,
+        ended=ended,
+    )
+
+
+def test_training_clause_says_where_a_run_crossed_and_how_it_ended():
+    stopped = _run([0.5, 0.9, 1.0, 1.0, 1.0, 1.0, 1.0], "stop rule", "success held")
+    assert training_clause("full state", stopped) == (
+        "the full-state run's test success first reached 0.95 at 1,000 episodes, and "
+        "the run stopped once it had held 0.95 for 5 evaluations, after 7 epochs "
+        "(2,800 episodes)"
+    )  # 0.9 at 800, 1.0 at 1,200: 0.95 read halfway between
+    budget = _run([0.2, 0.97, 0.9, 0.89], "budget", "budget")
+    assert training_clause("simplified state", budget) == (
+        "the simplified-state run's test success first reached 0.95 at 790 episodes, "
+        "and the run never held 0.95 for 5 evaluations: it used its whole budget, 4 "
+        "epochs (1,600 episodes), and ended at 0.89"
+    )  # 400 + 400 * (0.95 - 0.2) / (0.97 - 0.2) = 789.6
+    running = _run([0.1, 0.3], None, None)
+    assert training_clause("p", running) == (
+        "the p run's test success never reached 0.95, and the run is still training "
+        "(2 epochs (800 episodes) so far, at 0.30)"
+    )
+    assert training_clause("full state", None) == (
+        "the full-state policy is not trained yet"
+    )
+    both = {"full state": stopped, "simplified state": None}
+    assert training_sentence(both) == (
+        training_clause("full state", stopped)
+        + "; the simplified-state policy is not trained yet"
+    )
+    assert lengths_sentence("FetchPush-v4", both) == (
+        "Not every Push column is trained: there are no lengths to compare."
+    )
+    assert lengths_sentence(
+        "FetchPush-v4", {"full state": stopped, "simplified state": budget}
+    ) == (
+        "The Push policies did not train as long: the full-state one 7 epochs (2,800 "
+        "episodes), the simplified-state one 4 epochs (1,600 episodes), so a "
+        "difference between their columns is one of training as well as of state."
+    )
+    assert lengths_sentence("FetchPush-v4", {"a": budget, "b": budget}) == (
+        "The Push policies trained as long, 4 epochs (1,600 episodes) each."
+    )
 
 
 def test_determinism_for_a_seed_and_common_trials():
