@@ -13,11 +13,15 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
+
 from .config import TASK_PRESETS
 from .report import (
     ABLATIONS,
     CUT_WHY,
+    FIG4_METHODS,
     PAPER_TABLE_I,
+    SUCCESS_TOL,
     TAIL_EVALUATIONS,
     TASKS,
     CellStat,
@@ -27,6 +31,7 @@ from .report import (
     column_tail,
     complete,
     grid_cells,
+    learning_curves,
     paper_epochs,
     seed_level,
     separated,
@@ -60,15 +65,23 @@ def ratio_sentence(r: RatioStat) -> str:
     return f"on {where} our HER/ACDER ratio is {ratio_text(r)}{paper}"
 
 
-def verdict(rs: list[RatioStat], cells: list[CellStat] | None = None) -> str:
+def verdict(
+    rs: list[RatioStat],
+    cells: list[CellStat] | None = None,
+    coverage: dict[int, float] | None = None,
+) -> str:
     """Whether the paper's HER/ACDER ratio lies inside our 95% interval, task by task,
     and what that says about its factor of five. With `cells` (the summaries the ratios
     come from), a task whose HER or ACDER cell still has planned seeds to come is named
     with its seed counts and the verdict is said to be provisional. A task whose ratio
     is only bounded below (HER not within budget, `RatioStat.bound`) is said apart: the
     bound, and whether the paper's ratio lies above it (then the runs cannot say) or not
-    (then ACDER's advantage is larger here)."""
-    text, partial = _verdict(rs), _still_training(rs, cells or [])
+    (then ACDER's advantage is larger here). On a task whose threshold is 100%, no
+    resample crosses later than the cell's own mean curve, so the ratio's interval is
+    capped (`_capped_sentence`); `coverage` (seeds -> `report.bootstrap_coverage`) says
+    how often such an interval covers with that many seeds."""
+    by = {(c.env, c.name): c for c in cells or []}
+    text, partial = _verdict(rs, by, coverage or {}), _still_training(rs, cells or [])
     if not partial:
         return text
     return (
@@ -115,11 +128,24 @@ def _her_not_within(r: RatioStat) -> str:
     )
 
 
-def _bound_sentence(r: RatioStat) -> str:
-    """What a ratio bounded below says against the paper's."""
+def _bound_sentence(r: RatioStat, by: dict | None = None) -> str:
+    """What a ratio bounded below says against the paper's: the bound on these seeds,
+    the ratio's interval from below and, where every HER seed crossed on its own, the
+    median of their crossings (`by`: the cells by (task, method))."""
+    her, acder = (by or {}).get((r.env, "her")), (by or {}).get((r.env, "acder"))
+    notes = []
+    if her is not None and acder is not None:
+        notes.append(f"{her.n} of DDPG+HER, {acder.n} of DDPG+ACDER")
+    if r.low is not None and math.isfinite(r.low):
+        notes.append(f"95% interval from {r.low:.1f}")
+    if her is not None and her.n and her.k == her.n and her.seed_median is not None:
+        notes.append(
+            f"each DDPG+HER seed crossed on its own, at a median of "
+            f"{units(her, her.seed_median)} episodes"
+        )
     head = (
-        f"On {task_label(r.env)} {_her_not_within(r)} only known to be more than "
-        f"{r.bound:.1f}"
+        f"On {task_label(r.env)} {_her_not_within(r)} bounded below by "
+        f"{r.bound:.1f}" + (f" on these seeds ({'; '.join(notes)})" if notes else "")
     )
     if r.paper > r.bound:
         return head + (
@@ -132,8 +158,53 @@ def _bound_sentence(r: RatioStat) -> str:
     )
 
 
-def _verdict(rs: list[RatioStat]) -> str:
-    bounded = " ".join(_bound_sentence(r) for r in rs if _bounded(r))
+def _capped_sentence(r: RatioStat, by: dict, coverage: dict[int, float]) -> str:
+    """For a task read by the verdict whose threshold is 100% (a mean curve reaches it
+    only where every seed it averages is at it, so no resample crosses later than the
+    cell's own mean curve): the largest ratio a resample pair can give, HER's crossing
+    over ACDER's fastest seed (a resample of that seed alone), the per-seed ratios, and
+    the interval's coverage with that many seeds. '' elsewhere."""
+    her, acder = by.get((r.env, "her")), by.get((r.env, "acder"))
+    if her is None or acder is None or her.threshold < 1 or her.crossing is None:
+        return ""
+    fastest = [x for x in acder.seed_crossings if x is not None and x > 0]
+    text = (
+        f"On {task_label(r.env)} the threshold is {her.threshold:.0%}: no resample's "
+        "mean curve crosses later than the cell's own, so the interval cannot extend "
+        "to later crossings"
+    )
+    if fastest:
+        cap = her.crossing / min(fastest)
+        text += (
+            f", and it could not contain a ratio above about {cap:.1f} (DDPG+HER's "
+            "crossing over DDPG+ACDER's fastest seed)"
+        )
+        if r.paper is not None and cap < r.paper:
+            text += f", below the paper's {r.paper:.1f}"
+    if None not in (r.seed_ratio, r.seed_mean_ratio):
+        text += (
+            f". The per-seed ratios ({r.seed_ratio:.1f} of the medians, "
+            f"{r.seed_mean_ratio:.1f} of the means) carry the verdict there as much as "
+            "the interval"
+        )
+    ns = sorted({her.n, acder.n})
+    if all(n in coverage for n in ns):
+        said = " and ".join(f"{coverage[n]:.0%}" for n in ns)
+        text += (
+            f"; with {' and '.join(map(str, ns))} seeds such an interval covers "
+            f"about {said} of the time (above), not 95%"
+        )
+    return text + "."
+
+
+def _verdict(
+    rs: list[RatioStat], by: dict | None = None, coverage: dict | None = None
+) -> str:
+    by, coverage = by or {}, coverage or {}
+    bounded = " ".join(_bound_sentence(r, by) for r in rs if _bounded(r))
+    capped = " ".join(
+        filter(None, (_capped_sentence(r, by, coverage) for r in rs if _read(r)))
+    )
     read = [task_label(r.env) for r in rs if _read(r)]
     where = {"inside": [], "above": [], "below": []}
     for r in rs:
@@ -174,6 +245,8 @@ def _verdict(rs: list[RatioStat]) -> str:
         )
     else:
         text += "The paper's factor reproduces on some tasks and not on others."
+    if capped:
+        text += f" {capped}"
     return f"{text} {bounded}" if bounded else text
 
 
@@ -272,7 +345,38 @@ def grid_state(cells: list[CellStat]) -> str:
             f", and {count(held, 'cell')} {'is' if held == 1 else 'are'} on hold "
             "until the readings below are in"
         )
-    return text + "."
+    return text + "." + _to_come(cells)
+
+
+def _to_come(cells: list[CellStat]) -> str:
+    """' Still to come: on Pick&Place, DDPG+HER+ICM (2 seeds unfinished), and
+    DDPG+HER+PER and ... (not started).' from the cells with seeds not ended or planned
+    seeds not started; '' when there are none."""
+    parts = []
+    for env in dict.fromkeys(c.env for c in cells):
+        here = [c for c in cells if c.env == env]
+        going = [
+            f"{label(c.name)} ("
+            + ", ".join(
+                x
+                for x in (
+                    f"{count(c.unfinished, 'seed')} unfinished" if c.unfinished else "",
+                    f"{(c.planned or 0) - c.n} not started"
+                    if (c.planned or 0) > c.n
+                    else "",
+                )
+                if x
+            )
+            + ")"
+            for c in here
+            if c.n and (c.unfinished or (c.planned or 0) > c.n)
+        ]
+        fresh = [label(c.name) for c in here if not c.n and c.planned]
+        if fresh:
+            going.append(f"{and_join(fresh)} (not started)")
+        if going:
+            parts.append(f"on {task_label(env)}, " + ", and ".join(going))
+    return f" Still to come: {'; '.join(parts)}." if parts else ""
 
 
 def bonus_sentence(
@@ -288,13 +392,13 @@ def bonus_sentence(
     parts = []
     for env in envs:
         vals = [(n, column_tail(runs, env, n, "r_int_mean", last)) for n in names]
+        eta = TASK_PRESETS[env]["eta"]
         vals = [
-            f"{label(n)} {v:.2f}{_so_far(runs, env, n)}"
+            f"{label(n)} {v:.2g} ({v / eta:.0%} of η){_so_far(runs, env, n)}"
             for n, v in vals
             if v is not None
         ]
         if vals:
-            eta = TASK_PRESETS[env]["eta"]
             parts.append(f"on {task_label(env)} (clip η = {eta}): {', '.join(vals)}")
     return sentence(parts) or "No curiosity method has an evaluation yet."
 
@@ -329,16 +433,19 @@ def control_sentence(her: CellStat, icm: CellStat, bonus: CellStat) -> str:
         rule = {
             (True, False): "the shift does not explain ICM's gain, which is its own",
             (False, True): "the shift explains ICM's gain",
-        }.get(tuple(inside), "the rule fixed before its runs leaves it open")
+        }.get(tuple(inside), "")
         places = " and ".join(
             f"{'inside' if i else 'beyond'} {label(c.name)}'s 95% interval"
             for i, c in zip(inside, (her, icm))
         )
-        return text + (
+        text += (
             f" The constant's mean curve does not reach {bonus.threshold:.0%} within "
             f"its budget, so the constant alone saves{saved}. Beyond the budget, its "
-            f"crossing lies {places}: {rule}."
+            f"crossing lies {places}"
         )
+        if rule:
+            return text + f": {rule}. {control_found(her, icm, bonus)}".rstrip()
+        return text + f". {control_found(her, icm, bonus, open_rule=True)}".rstrip()
     if any(c.crossing is None for c in cells):
         return text + " The three can be compared once each mean curve has crossed."
     gain = her.crossing - icm.crossing
@@ -363,7 +470,66 @@ def control_sentence(her: CellStat, icm: CellStat, bonus: CellStat) -> str:
         if bonus.planned and bonus.done < bonus.planned
         else "."
     )
+    found = control_found(her, icm, bonus)
+    return f"{text} {found}" if found else text
+
+
+def _seed_values(c: CellStat) -> list[float] | None:
+    """A cell's seed crossings (epochs), inf for a seed that ended without one; None
+    while a seed has not ended (its crossing is not known)."""
+    if c.unfinished or not c.n:
+        return None
+    return [math.inf if x is None else x for x in c.seed_crossings]
+
+
+def _seeds_text(c: CellStat, v: list[float]) -> str:
+    """'at 15,333 and 19,600 episodes, and 1 not within budget'."""
+    at = [units(c, x) for x in sorted(v) if math.isfinite(x)]
+    never = sum(math.isinf(x) for x in v)
+    text = f"at {and_join(at)} episodes" if at else ""
+    if never:
+        text += f"{', and ' if at else ''}{never} not within budget"
     return text
+
+
+def control_found(
+    her: CellStat, icm: CellStat, bonus: CellStat, open_rule: bool = False
+) -> str:
+    """What the constant-bonus control found, seed by seed: whether every seed of the
+    constant crosses later than every seed of DDPG+HER (it slowed HER), earlier than
+    every seed of DDPG+HER+ICM, between the two, or overlapping. `open_rule`: the rule
+    written before the runs named no outcome for this placement, and the sentence says
+    so.
+    '' while a seed of the three has not ended."""
+    v = {c.name: _seed_values(c) for c in (her, icm, bonus)}
+    if None in v.values():
+        return ""
+    b, h, i = v[bonus.name], v[her.name], v[icm.name]
+    seeds = (
+        f"the constant's seeds {_seeds_text(bonus, b)}; {label(her.name)}'s "
+        f"{_seeds_text(her, h)}"
+    )
+    if min(b) > max(h):
+        never = " or not within its budget" if max(b) == math.inf else ""
+        said = (
+            f"Every seed of the constant crosses later than every seed of "
+            f"{label(her.name)}{never} ({seeds}), so the constant slowed it"
+        )
+    elif max(b) < min(i):
+        said = (
+            f"Every seed of the constant crosses earlier than every seed of "
+            f"{label(icm.name)} ({seeds})"
+        )
+    elif min(b) >= min(i) and max(b) <= max(h):
+        said = (
+            f"The constant's seeds lie between the fastest seed of {label(icm.name)} "
+            f"and the slowest of {label(her.name)} ({seeds})"
+        )
+    else:
+        said = f"The constant's seeds overlap the others' ({seeds})"
+    if open_rule:
+        said += "; the rule, written before the runs, named no outcome for this case"
+    return said + "."
 
 
 def sincos_sentence(acder: CellStat, sincos: CellStat) -> str:
@@ -422,15 +588,95 @@ def order_sentence(cells: list[CellStat]) -> str:
     for i, c in enumerate(crossed):  # equal crossings are ties, not an order
         if i:
             chain += " = " if c.crossing == crossed[i - 1].crossing else " < "
-        chain += f"{label(c.name)} {units(c, c.crossing)}"
+        chain += f"{label(c.name)} {units(c, c.crossing)}{_unfinished(c)}"
     parts = [chain] if crossed else []
     parts += [
-        f"{label(c.name)} {mean_text(c)}" for c in cells if c.crossing is None and c.n
+        f"{label(c.name)} {mean_text(c)}{_unfinished(c)}"
+        for c in cells
+        if c.crossing is None and c.n
     ]
     unrun = [label(c.name) for c in cells if not c.n]
     if unrun:
         parts.append("not run yet: " + ", ".join(unrun))
     return "; ".join(parts)
+
+
+def _unfinished(c: CellStat) -> str:
+    """' (2 of 2 seeds unfinished)' for a cell with seeds not ended (training or
+    interrupted): its crossing may still move. '' otherwise."""
+    if not c.unfinished:
+        return ""
+    return f" ({c.unfinished} of {count(c.n, 'seed')} unfinished)"
+
+
+def unheld_sentence(cells: list[CellStat], runs: list[dict], share: float = 0.5) -> str:
+    """Mean-curve crossings that do not hold: for each cell whose mean curve crosses and
+    then lies below the threshold at `share` or more of its later evaluations (where
+    every seed has a value), "<method>'s mean curve on <task> reaches 95% at epoch X and
+    is below it at N of its M later evaluations". '' where no crossing is like that."""
+    curves = learning_curves(runs)
+    parts = []
+    for c in cells:
+        m = curves.get((c.env, c.name))
+        if c.crossing is None or m is None:
+            continue
+        later = (m.x > c.crossing) & ~np.isnan(m.mean)
+        below = int((later & (m.mean < c.threshold - SUCCESS_TOL)).sum())
+        if later.any() and below >= share * later.sum():
+            parts.append(
+                f"{label(c.name)}'s mean curve on {task_label(c.env)} reaches "
+                f"{c.threshold:.0%} at epoch {c.crossing:.1f}{_unfinished(c)} and is "
+                f"below it at {below} of its {int(later.sum())} later evaluations"
+            )
+    return sentence(parts)
+
+
+def first_sentence(cells: list[CellStat], tasks=TASKS, names=FIG4_METHODS) -> str:
+    """Per task, whether DDPG+ACDER's mean curve crosses first among `names` in our
+    runs; a method that crosses no later is named, with whether the readings' rule
+    (`report.separated`) separates it from ACDER; cells still training or not run yet
+    are named, as what can still change it."""
+    parts = []
+    for e in tasks:
+        cs = {c.name: c for c in cells if c.env == e and c.name in names}
+        a = cs.get("acder")
+        if a is None or not cs:
+            continue
+        pending = [
+            f"{label(c.name)} {'not run yet' if not c.n else 'unfinished'}"
+            for c in cs.values()
+            if not c.n or c.unfinished
+        ]
+        tail = f", with {and_join(pending)}" if pending else ""
+        if reached(a) is None or a.crossing is None:
+            parts.append(f"on {task_label(e)} DDPG+ACDER has not crossed{tail}")
+            continue
+        before = [
+            c
+            for c in cs.values()
+            if c is not a and c.crossing is not None and c.crossing <= a.crossing
+        ]
+        if not before:
+            parts.append(f"on {task_label(e)} DDPG+ACDER comes first{tail}")
+            continue
+
+        def how(c: CellStat) -> str:
+            sep = separated(c, a)
+            rule = (
+                "the rule cannot be applied yet"
+                if sep is None
+                else "separated by the rule"
+                if sep
+                else "not separated by the rule"
+            )
+            when = "at the same point" if c.crossing == a.crossing else "earlier"
+            return f"{label(c.name)} crosses {when} ({rule})"
+
+        parts.append(
+            f"on {task_label(e)} DDPG+ACDER does not come first: "
+            f"{and_join([how(c) for c in before])}{tail}"
+        )
+    return sentence(parts) or "No task has a DDPG+ACDER cell yet."
 
 
 def readings_decisions(norm: CellStat, raw: CellStat, goal: CellStat) -> dict:
@@ -542,17 +788,30 @@ def ablation_sentence(
         f"{order_sentence([by[n] for n in ('her', 'acder') + ABLATIONS if n in by])}. "
     )
     text += (
-        f"Slower than full ACDER, as in the paper: {and_join(slower)}"
+        f"Crosses later than full ACDER (mean curves): {and_join(slower)}"
         if slower
-        else "No ablation is slower than full ACDER"
+        else "No ablation crosses later than full ACDER (mean curves)"
     )
     if faster:
-        text += f"; as fast or faster, unlike the paper: {and_join(faster)}"
+        text += f"; no later: {and_join(faster)}"
     if neither:
         text += f"; like full ACDER, not within the budget: {and_join(neither)}"
+    # the paper's reading (each ablation slower) is confirmed or contradicted only
+    # where the readings' rule separates the two cells
+    sep = [c for c in abl if separated(c, acder)]
+    agree = [label(c.name) for c in sep if reached(c) > full]
+    disagree = [label(c.name) for c in sep if reached(c) < full]
+    if agree or disagree:
+        said = [f"later, as in the paper: {and_join(agree)}" if agree else ""]
+        said.append(
+            f"earlier, unlike the paper: {and_join(disagree)}" if disagree else ""
+        )
+        text += ". Separated from full ACDER by the rule below, " + "; ".join(
+            x for x in said if x
+        )
     if her is not None and reached(her) is not None:
         beat = [label(c.name) for c in abl if reached(c) < reached(her)]
-        text += f". Faster than DDPG+HER: {and_join(beat)}"
+        text += f". Crosses before DDPG+HER (mean curves): {and_join(beat)}"
     fewer = [c for c in abl if c.n < acder.n]
     if acder.threshold >= 1 and fewer:
         text += (
@@ -578,7 +837,7 @@ def separated_sentence(cells: list[CellStat], tasks=TASKS) -> str:
     out, and named as such, until every planned seed of its ablations and of ACDER has
     ended."""
     by = {(c.env, c.name): c for c in cells}
-    parts, waiting = [], []
+    parts, waiting, read = [], [], []
     for e in tasks:
         if (e, "acder") not in by or any((e, n) not in by for n in ABLATIONS):
             continue
@@ -589,8 +848,16 @@ def separated_sentence(cells: list[CellStat], tasks=TASKS) -> str:
         parts.append(
             f"on {task_label(e)}: " + and_join([label(n) for n, s in rule.items() if s])
         )
+        read.append(e)
     if not parts:
         return "No task has all its ablations finished yet."
+    capped = [task_label(e) for e in read if threshold(e) >= 1]
+    if capped:
+        parts[-1] += (
+            f". On {and_join(capped)} the threshold is 100%, where an interval cannot "
+            "extend to later crossings: a later crossing always lies outside the "
+            "earlier one's interval, so only one side of the rule is tested"
+        )
     if not waiting:
         return sentence(parts)
     return (
@@ -612,10 +879,28 @@ def seed_ratio_sentence(rs: list[RatioStat]) -> str:
     return "; ".join(parts) or "not readable yet on any task"
 
 
+def _paper_place(c: CellStat) -> str:
+    """' (inside our 95% interval, 8,960 – 11,120)', ' (above ...)', ' (below ...)':
+    where Table I's number lies against the cell's interval, both in Table I's unit;
+    '' without a paper number or an interval."""
+    if c.paper is None or c.low is None or c.high is None or math.isnan(c.low):
+        return ""
+    lo, hi = c.paper_units(c.low), c.paper_units(c.high)
+    where = "inside" if lo <= c.paper <= hi else "above" if c.paper > hi else "below"
+    if math.isinf(lo):  # every resample beyond the budget
+        span = episodes(lo)
+    elif math.isinf(hi):
+        span = f"{episodes(lo)} or later"
+    else:
+        span = f"{episodes(lo)} – {episodes(hi)}"
+    return f" ({where} our 95% interval, {span})"
+
+
 def beside_paper_sentence(cells: list[CellStat], tasks=TASKS) -> str:
     """Our HER and ACDER mean-curve crossings beside the paper's numbers, for each task
     where both cells are read (`reached`: crossed, or every seed ended without a
-    crossing, which Table I's text says: "not within budget (100 epochs)")."""
+    crossing, which Table I's text says: "not within budget (100 epochs)"), each with
+    where the paper's number lies against our 95% interval (`_paper_place`)."""
     by = {(c.env, c.name): c for c in cells}
     parts = []
     for e in tasks:
@@ -624,7 +909,8 @@ def beside_paper_sentence(cells: list[CellStat], tasks=TASKS) -> str:
             continue
         parts.append(
             f"on {task_label(e)}, DDPG+HER {mean_text(h)} against the paper's "
-            f"{h.paper:,} and DDPG+ACDER {mean_text(a)} against its {a.paper:,}"
+            f"{h.paper:,}{_paper_place(h)} and DDPG+ACDER {mean_text(a)} against its "
+            f"{a.paper:,}{_paper_place(a)}"
         )
     return sentence(parts) or (
         "No task has both HER's and ACDER's mean curves crossed or ended yet."

@@ -267,7 +267,8 @@ def task_panels(
     labels: dict | None = None,
 ):
     """One full-width panel per task, the mean curves of `names` on it (her-ebp left out
-    where there is no object). Returns (figure, {task: {name: status}})."""
+    where there is no object); a panel where some of them have no runs names those in
+    its legend ("not run yet: ..."). Returns (figure, {task: {name: status}})."""
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(
@@ -277,7 +278,8 @@ def task_panels(
     for ax, env in zip(axes[:, 0], tasks):
         here = [n for n in names if not (n == "her-ebp" and env not in OBJECT_ENVS)]
         statuses[env] = plot_mean_curves(ax, runs, env, here, labels)
-        if not any(s != "not run yet" for s in statuses[env].values()):
+        unrun = [n for n, s in statuses[env].items() if s == "not run yet"]
+        if len(unrun) == len(here):
             ax.text(
                 0.5,
                 0.5,
@@ -287,6 +289,9 @@ def task_panels(
                 transform=ax.transAxes,
                 color="gray",
             )
+        elif unrun:  # the title promises them: the legend says which are missing
+            names_text = ", ".join((labels or METHOD_LABELS).get(n, n) for n in unrun)
+            ax.plot([], [], ls="none", label=f"not run yet: {names_text}")
         style_axes(
             ax,
             report.threshold(env),

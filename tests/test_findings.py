@@ -3,6 +3,7 @@ cells: two equal seeds a cell make each 95% interval its crossing."""
 
 import math
 
+import numpy as np
 import pytest
 
 from acder_lite import findings as F, report as RE, table as T
@@ -27,9 +28,14 @@ def test_sentences_for_the_book():
         "curiosity 1,560" in s
     )
     assert "not run yet: ACDER w/o goal factor" in s
-    assert "Slower than full ACDER, as in the paper: ACDER w/o curiosity" in s
-    assert "as fast or faster, unlike the paper: ACDER w/o start states" in s
-    assert "Faster than DDPG+HER: ACDER w/o start states." in s
+    assert "Crosses later than full ACDER (mean curves): ACDER w/o curiosity" in s
+    assert "; no later: ACDER w/o start states" in s
+    # two equal seeds: every interval is its point, so the rule separates each pair
+    assert (
+        "Separated from full ACDER by the rule below, later, as in the paper: ACDER "
+        "w/o curiosity; earlier, unlike the paper: ACDER w/o start states." in s
+    )
+    assert "Crosses before DDPG+HER (mean curves): ACDER w/o start states." in s
     (r,) = RE.ratios([her, acder], tasks=(P,))
     assert r.ours == pytest.approx(2.9 / 1.9)
     v = F.verdict([r])
@@ -144,11 +150,14 @@ def test_bonus_sentence_averages_each_seeds_last_evaluations():
         dict(env=P, name="her", seed=0, rows=[dict(epoch=1.0)]),
     ]
     text = F.bonus_sentence(runs, ["FetchReach-v4", P], last=2)
-    assert text == "On Push (clip η = 0.8): DDPG+HER+ICM 0.70, DDPG+ACDER 0.15."
+    assert text == (
+        "On Push (clip η = 0.8): DDPG+HER+ICM 0.7 (87% of η), "
+        "DDPG+ACDER 0.15 (19% of η)."
+    )
     # a seed not ended yet (ended None): the value is said to be so far
     runs[0]["ended"], runs[1]["ended"] = None, "budget"
     text = F.bonus_sentence(runs, [P], last=2)
-    assert "DDPG+HER+ICM 0.70 so far (1 of its 2 seeds unfinished), DDPG+ACDER" in text
+    assert "DDPG+HER+ICM 0.7 (87% of η) so far (1 of its 2 seeds unfinished)," in text
     runs[0]["ended"] = "stop rule"
     assert "so far" not in F.bonus_sentence(runs, [P], last=2)
     assert F.bonus_sentence([], [P]) == "No curiosity method has an evaluation yet."
@@ -176,7 +185,22 @@ def test_grid_state_counts_the_three_tasks_cells_only():
     assert F.grid_state(cells) == (
         f"2 of the {len(grid)} cells of Table I and Fig. 5 (the three tasks) have at "
         f"least one finished seed; 5 of the {planned} planned seeds have finished, "
-        "1 more is training or interrupted."
+        "1 more is training or interrupted. Still to come: on Reach, DDPG+HER (1 seed "
+        "unfinished), and DDPG+HER+PER, DDPG+ACDER, ACDER w/o curiosity, ACDER w/o "
+        "goal factor and ACDER w/o start states (not started); on Push, DDPG+HER, "
+        "DDPG+HER+ICM, DDPG+HER+PER, DDPG+HER+EBP, DDPG+ACDER, ACDER w/o curiosity, "
+        "ACDER w/o goal factor and ACDER w/o start states (not started); on "
+        "Pick&Place, DDPG+HER, DDPG+HER+ICM, DDPG+HER+PER, DDPG+HER+EBP, DDPG+ACDER, "
+        "ACDER w/o curiosity, ACDER w/o goal factor and ACDER w/o start states (not "
+        "started)."
+    )
+    for c in cells:  # every planned seed in and ended: nothing to come
+        c.n = c.done = c.planned or c.done
+        c.unfinished = 0
+    assert "Still to come" not in F.grid_state(cells)
+    cells[2].n, cells[2].done = 1, 1  # 1 of 3 in, 2 not started
+    assert "Still to come: on Reach, DDPG+HER+PER (2 not started)." in F.grid_state(
+        cells
     )
 
 
@@ -250,13 +274,16 @@ def test_control_sentence_when_the_constant_never_crosses():
     assert never.why == "not within budget"
     s = F.control_sentence(her, icm, never)
     assert "saves none of the 400 episodes DDPG+HER+ICM saves over DDPG+HER." in s
-    assert s.endswith(
-        "beyond DDPG+HER's 95% interval and beyond DDPG+HER+ICM's 95% interval: "
-        "the rule fixed before its runs leaves it open."
+    assert (
+        "beyond DDPG+HER's 95% interval and beyond DDPG+HER+ICM's 95% interval. "
+        "Every seed of the constant crosses later than every seed of DDPG+HER or not "
+        "within its budget (the constant's seeds 2 not within budget; DDPG+HER's at "
+        "1,160 and 1,160 episodes), so the constant slowed it; the rule, written "
+        "before the runs, named no outcome for this case." in s
     )
     her.high = math.inf
     s = F.control_sentence(her, icm, never)
-    assert s.endswith("the shift does not explain ICM's gain, which is its own.")
+    assert "the shift does not explain ICM's gain, which is its own. Every seed" in s
     never.planned = 3  # a seed still to come: not read yet
     s = F.control_sentence(her, icm, never)
     assert s.endswith("can be compared once each mean curve has crossed.")
@@ -284,13 +311,13 @@ def test_ablation_sentence_reads_cells_that_never_cross():
     )
     never = curve_cell("acder-no-goal-factor", [0.0, 0.2, 0.5, 0.6])
     s = F.ablation_sentence([her, acder, never], P)
-    assert "Slower than full ACDER, as in the paper: ACDER w/o goal factor." in s
-    assert "Faster than DDPG+HER: none." in s
+    assert "Crosses later than full ACDER (mean curves): ACDER w/o goal factor." in s
+    assert "Crosses before DDPG+HER (mean curves): none." in s
     acder_never = curve_cell("acder", [0.0, 0.1, 0.2, 0.3])
     fast = curve_cell("acder-no-curiosity", [1.0] * 4)
     s = F.ablation_sentence([her, acder_never, never, fast], P)
-    assert "No ablation is slower than full ACDER" in s
-    assert "as fast or faster, unlike the paper: ACDER w/o curiosity" in s
+    assert "No ablation crosses later than full ACDER (mean curves)" in s
+    assert "; no later: ACDER w/o curiosity" in s
     assert "like full ACDER, not within the budget: ACDER w/o goal factor" in s
     never.planned = 3  # a seed still to come: not compared
     s = F.ablation_sentence([her, acder, never], P)
@@ -395,14 +422,16 @@ def test_seed_ratio_and_beside_paper_sentences():
     (r,) = RE.ratios([her, acder], tasks=(P,))
     assert F.seed_ratio_sentence([r]) == "on Push 1.5 and 1.5, against the paper's 5.3"
     assert F.beside_paper_sentence([her, acder], tasks=(P,)) == (
-        "On Push, DDPG+HER 1,160 against the paper's 11,600 and DDPG+ACDER 760 against "
-        "its 2,200."
+        "On Push, DDPG+HER 1,160 against the paper's 11,600 (above our 95% interval, "
+        "1,160 – 1,160) and DDPG+ACDER 760 against its 2,200 (above our 95% interval, "
+        "760 – 760)."
     )
     # a cell whose seeds all ended without a crossing is said beside the paper's too
     never = curve_cell("acder", [0.0] * 4)
     assert F.beside_paper_sentence([her, never], tasks=(P,)) == (
-        "On Push, DDPG+HER 1,160 against the paper's 11,600 and DDPG+ACDER not within "
-        "budget (4 epochs) against its 2,200."
+        "On Push, DDPG+HER 1,160 against the paper's 11,600 (above our 95% interval, "
+        "1,160 – 1,160) and DDPG+ACDER not within budget (4 epochs) against its 2,200 "
+        "(below our 95% interval, beyond budget)."
     )
     # one still training (no ended seed) is not: its crossing may still come
     training = curve_cell("acder", [0.0] * 4, ended=None)
@@ -434,7 +463,7 @@ def test_a_ratio_bounded_below_is_said_as_a_bound():
     assert F.ratio_sentence(rs[0]).startswith("on Reach our HER/ACDER ratio is 2.0")
     bound = (
         "On Push DDPG+HER's mean curve does not reach 95% within its budget, so our "
-        "HER/ACDER ratio is only known to be more than 2.1; the paper's 5.3 lies above "
+        "HER/ACDER ratio is bounded below by 2.1; the paper's 5.3 lies above "
         "that bound, and the runs cannot say whether ACDER's advantage there is as "
         "large as the paper's."
     )
@@ -448,7 +477,8 @@ def test_a_ratio_bounded_below_is_said_as_a_bound():
     # a bound above the paper's ratio: ACDER's advantage is larger here
     high = RE.RatioStat(P, None, bound=6.0, paper=5.3, why="HER not within budget")
     assert F.verdict([high]).endswith(
-        "more than 6.0, which is above the paper's 5.3: there ACDER's advantage over "
+        "bounded below by 6.0, which is above the paper's 5.3: there ACDER's "
+        "advantage over "
         "HER is larger here than in the paper."
     )
     # HER's cell with planned seeds to come: the bounded task makes it provisional
@@ -490,4 +520,126 @@ def test_paper_epochs_texts_reach_by_hand():
     assert (
         F.paper_epochs_texts("FetchPush-v4", 200, 50)["in_ours"]
         == "58, 49, 39, 36 and 11"
+    )
+
+
+def test_order_sentence_names_the_seeds_still_unfinished():
+    training = curve_cell("her-icm", [0.5, 1.0, 1.0, 1.0], ended=None)
+    done = curve_cell("acder", [0.0, 0.5, 1.0, 1.0])
+    assert F.order_sentence([training, done]) == (
+        "DDPG+HER+ICM 760 (2 of 2 seeds unfinished) < DDPG+ACDER 1,160"
+    )
+
+
+def _runs(name, values, env=P):
+    rows = [
+        dict(epoch=float(i), episodes=400.0 * i, test_success=v)
+        for i, v in enumerate(values, 1)
+    ]
+    return [
+        dict(env=env, name=name, method=name, seed=s, rows=rows, ended="budget",
+             budget_epochs=float(len(values)), episodes_per_epoch=400.0)
+        for s in range(2)
+    ]  # fmt: skip
+
+
+def test_unheld_sentence_names_crossings_that_do_not_hold():
+    """Crossing at 1.9 epochs, then below 95% at 2 of the 4 later evaluations (half:
+    named); a curve that stays up is not."""
+    runs = _runs("her-icm", [0.5, 1.0, 0.5, 0.5, 1.0]) + _runs(
+        "acder", [0.5, 1.0, 1.0, 0.9, 1.0]
+    )
+    cells = RE.summarize(runs, n_boot=50)
+    assert F.unheld_sentence(cells, runs) == (
+        "DDPG+HER+ICM's mean curve on Push reaches 95% at epoch 1.9 and is below it "
+        "at 2 of its 4 later evaluations."
+    )
+    assert F.unheld_sentence(cells, runs, share=0.6) == ""
+
+
+def test_first_sentence_says_whether_acder_comes_first():
+    her = curve_cell("her", [0.0, 0.5, 1.0, 1.0])
+    acder = curve_cell("acder", [0.5, 1.0, 1.0, 1.0])
+    unrun = RE.cell_stat(P, "her-per", [])
+    assert (
+        F.first_sentence([her, acder], tasks=(P,)) == "On Push DDPG+ACDER comes first."
+    )
+    icm = curve_cell("her-icm", [1.0] * 4)
+    assert F.first_sentence([her, acder, icm, unrun], tasks=(P,)) == (
+        "On Push DDPG+ACDER does not come first: DDPG+HER+ICM crosses earlier "
+        "(separated by the rule), with DDPG+HER+PER not run yet."
+    )
+    icm.planned = 3  # a seed still to come: the rule is not applied
+    assert "(the rule cannot be applied yet)" in F.first_sentence(
+        [her, acder, icm], tasks=(P,)
+    )
+
+
+def test_verdict_at_a_100_percent_threshold_says_the_interval_is_capped():
+    """Reach: HER's mean curve at 100% at epoch 2, ACDER's seeds at epoch 1: no HER
+    resample crosses after 2, so no resample ratio exceeds 2 / 1 = 2.0, below the
+    paper's 5.6."""
+    R = "FetchReach-v4"
+    cells = [
+        curve_cell("her", [0.5, 1.0, 1.0, 1.0], env=R),
+        curve_cell("acder", [1.0] * 4, env=R),
+    ]
+    rs = RE.ratios(cells, tasks=(R,))
+    v = F.verdict(rs, cells, {2: 0.5})
+    assert (
+        "On Reach the threshold is 100%: no resample's mean curve crosses later than "
+        "the cell's own, so the interval cannot extend to later crossings, and it "
+        "could not contain a ratio above about 2.0 (DDPG+HER's crossing over "
+        "DDPG+ACDER's fastest seed), below the paper's 5.6. The per-seed ratios (2.0 "
+        "of the medians, 2.0 of the means) carry the verdict there as much as the "
+        "interval; with 2 seeds such an interval covers about 50% of the time "
+        "(above), not 95%." in v
+    )
+    assert float(np.nanmax(RE.ratio_boot(cells[0].boot, cells[1].boot))) <= 2.0
+    push = [curve_cell("her", [0.0, 0.5, 1.0, 1.0]), curve_cell("acder", [1.0] * 4)]
+    assert "threshold is 100%" not in F.verdict(RE.ratios(push, tasks=(P,)), push)
+
+
+def test_bound_sentence_names_the_seeds_and_their_own_crossings():
+    """HER's mean curve never reaches 95% (its two seeds differ), but each seed does on
+    its own: the bound is said on these seeds, with the median of HER's crossings."""
+    runs = _runs("her", [0.0, 0.5, 1.0, 0.5]) + _runs("acder", [0.5, 1.0, 1.0, 1.0])
+    runs[1]["rows"] = [dict(r, test_success=0.5) for r in runs[1]["rows"]]
+    runs[1]["rows"][-1]["test_success"] = 1.0
+    cells = RE.summarize(runs, n_boot=50)
+    (r,) = RE.ratios(cells, tasks=(P,))
+    assert r.bound is not None
+    v = F.verdict([r], cells)
+    assert "bounded below by 2.1 on these seeds (2 of DDPG+HER, 2 of DDPG+ACDER" in v
+    assert "each DDPG+HER seed crossed on its own, at a median of 1,360 episodes" in v
+
+
+def test_control_found_places_the_constant_seed_by_seed():
+    her, icm = (
+        curve_cell("her", [0.0, 0.5, 1.0, 1.0]),
+        curve_cell("her-icm", [0.5, 1.0, 1.0, 1.0]),
+    )
+    between = curve_cell("her-bonus", [0.0, 0.9, 1.0, 1.0])
+    assert F.control_found(her, icm, between).startswith(
+        "The constant's seeds lie between the fastest seed of DDPG+HER+ICM and the "
+        "slowest of DDPG+HER (the constant's seeds at 1,000 and 1,000 episodes;"
+    )
+    fast = curve_cell("her-bonus", [1.0] * 4)
+    assert F.control_found(her, icm, fast).startswith(
+        "Every seed of the constant crosses earlier than every seed of DDPG+HER+ICM"
+    )
+    training = curve_cell("her-bonus", [1.0] * 4, ended=None)
+    assert F.control_found(her, icm, training) == ""
+
+
+def test_separated_sentence_says_one_side_is_tested_at_100_percent():
+    R = "FetchReach-v4"
+    cells = [curve_cell("acder", [0.5, 1.0, 1.0, 1.0], env=R)] + [
+        curve_cell(n, [1.0] * 4, env=R) for n in RE.ABLATIONS
+    ]
+    s = F.separated_sentence(cells, tasks=(R,))
+    assert s.endswith(
+        "On Reach the threshold is 100%, where an interval cannot extend to later "
+        "crossings: a later crossing always lies outside the earlier one's interval, "
+        "so only one side of the rule is tested."
     )

@@ -92,3 +92,18 @@ def test_seed_ends_a_cut_seed_ends_the_mean_curve_a_stopped_one_is_carried():
 def test_key_entries_name_the_threshold(threshold):
     texts = [t for _, t in plots.key_entries(threshold)]
     assert texts[0] == f"{threshold:.0%}, the threshold"
+
+
+def test_task_panels_name_the_methods_not_run_yet_inside_the_panel():
+    """A panel whose title promises methods without runs says which, in its legend; one
+    without any runs says only "not run yet"."""
+    runs = [push_run(0, [0.5, 0.9, 1.0], "budget", budget=3.0)]
+    fig, status = plots.task_panels(
+        runs, ("acder", "acder-no-curiosity"), tasks=("FetchPush-v4", "FetchReach-v4")
+    )
+    push, reach = fig.axes[:2]
+    legend = [t.get_text() for t in push.get_legend().get_texts()]
+    assert "not run yet: ACDER w/o curiosity" in legend
+    assert [t.get_text() for t in reach.texts] == ["not run yet"]
+    assert status["FetchPush-v4"]["acder-no-curiosity"] == "not run yet"
+    plt.close(fig)
