@@ -109,6 +109,37 @@ def networks(tr) -> list:
     return [a.actor, a.critic, a.actor_targ, a.critic_targ, tr.curiosity]
 
 
+def assert_same_run(a, b, rows=True) -> None:
+    """Two trainers that ran the same computation, at full precision: every progress
+    row as floats (wall_s aside; `rows=False` skips them), every tensor of the agent's
+    actor, critic and both targets and of the curiosity module where there is one, the
+    replay buffer's arrays, and the numpy random stream's state."""
+    import numpy as np
+    import torch
+
+    if rows:
+        strip = [
+            [{k: v for k, v in r.items() if k != "wall_s"} for r in t.rows]
+            for t in (a, b)
+        ]
+        assert strip[0] == strip[1] and strip[0]
+    net_a, net_b = a.agent.state_dict(), b.agent.state_dict()
+    for net in ("actor", "critic", "actor_targ", "critic_targ"):
+        assert net_a[net].keys() == net_b[net].keys()
+        for k, v in net_a[net].items():
+            assert torch.equal(v, net_b[net][k]), f"{net}.{k}"
+    assert (a.curiosity is None) == (b.curiosity is None)
+    if a.curiosity is not None:
+        cur_b = b.curiosity.state_dict()
+        for k, v in a.curiosity.state_dict().items():
+            assert torch.equal(v, cur_b[k]), f"curiosity.{k}"
+    buf_a, buf_b = a.buffer.arrays(), b.buffer.arrays()
+    assert buf_a.keys() == buf_b.keys()
+    for key in buf_a:
+        np.testing.assert_array_equal(buf_a[key], buf_b[key], err_msg=key)
+    assert a.rng.bit_generator.state == b.rng.bit_generator.state
+
+
 def run_cli(*args, timeout=300, **kw):
     env = dict(os.environ, PYTHONPATH=ROOT)
     return subprocess.run(

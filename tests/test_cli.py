@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, rows_of, run_cli
 
 TINY = (
     "--workers 1 --cycles 2 --updates-per-cycle 2 --batch-size 16 "
@@ -397,6 +397,16 @@ def test_ctrl_c_leaves_a_checkpoint_to_resume(tmp_path):
     )
     assert p.returncode == 0, p.stderr
     assert (out / "done.json").exists()
+    # the same numbers as the run never interrupted: the same arguments and budget
+    import torch
+
+    ref = tmp_path / "ref"
+    budget = ["--epochs", str(done // 2 + 1)]
+    r = run_cli(*args[:-1], str(ref), *budget, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert rows_of(out / "progress.csv") == rows_of(ref / "progress.csv")
+    a, b = (load_torch(str(d / "policy.pt"))["policy"]["actor"] for d in (out, ref))
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
 
 
 def test_bench_both_dtypes_ends_with_the_bench_line(cli):

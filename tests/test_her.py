@@ -82,3 +82,54 @@ def test_given_indices_choose_the_transitions(episodes):
     np.testing.assert_array_equal(b["t"], t)
     h = b["her"]
     assert np.all(b["g"][h, 0] == ep[h]) and np.all(b["g"][h, 1] > t[h])
+
+
+def test_future_step_is_uniform_over_the_later_steps(episodes):
+    """future_t is uniform on t+1..T: from t = 0 on 1..50 (chi-square over the 50 steps
+    below its 0.999 quantile for 49 degrees of freedom, 85.35); from t = 49 always 50
+    (ag[T], the final achieved goal); from t = 48, 49 or 50 half each."""
+    rng = np.random.default_rng(5)
+
+    def future(t, n):
+        ep, t = np.zeros(n, np.int64), np.full(n, t)
+        b = sample_her_transitions(
+            episodes, n, 1.0, lambda a, g, i: np.zeros(len(a)), rng, ep, t
+        )
+        assert b["her"].all()
+        np.testing.assert_array_equal(b["g"][:, 1], b["future_t"])  # the step used
+        return b["future_t"]
+
+    n = 50_000
+    counts = np.bincount(future(0, n), minlength=51)
+    assert counts[0] == 0 and counts.sum() == n and counts.size == 51
+    chi2 = (((counts[1:] - n / 50) ** 2) / (n / 50)).sum()
+    assert chi2 < 85.35
+    assert set(future(49, 2000)) == {50}
+    last = future(48, 20_000)
+    assert set(last) == {49, 50}
+    assert abs((last == 50).mean() - 0.5) < 0.02  # sd 0.0035
+
+
+@pytest.mark.parametrize(
+    "method, replay_k, future_p",
+    [("her", 4, 0.8), ("her", 2, 2 / 3), ("acder", 4, 0.8), ("ddpg", 4, 0.0)],
+)
+def test_future_p_follows_replay_k_and_the_method(method, replay_k, future_p):
+    """future_p = 1 - 1/(1 + replay_k) with HER (0.8 at k = 4, 2/3 at k = 2); DDPG
+    relabels nothing. Read after resolve(): the method's switches are filled there."""
+    from acder_lite.config import Config
+
+    cfg = Config(method=method, replay_k=replay_k).resolve()
+    assert cfg.future_p == pytest.approx(future_p, abs=1e-15)
+
+
+def test_ddpg_minibatches_keep_their_own_goals():
+    from acder_lite.trainer import Trainer
+
+    from conftest import tiny_config
+
+    tr = Trainer(tiny_config(method="ddpg", epochs=1, cycles=1))
+    tr.train_cycle()
+    b = tr.sample_batch()
+    assert b["her"].size == 32 and not b["her"].any()
+    np.testing.assert_array_equal(b["g"], tr.buffer.g[b["ep"], b["t"]])

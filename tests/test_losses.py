@@ -53,18 +53,22 @@ def test_loss_q_target_clip_and_weights():
         const_critic(0.0), const_actor(0.0), const_critic(-100.0), b, 0.98, (-50.0, 0.0)
     )
     assert loss.item() == pytest.approx(2500.0)
-    # Q' = +10 with the upper clip 0: y = r clipped to <= 0
+    # the same with weights: y = r - 98 = [-99, -98, -99, -99] clips to -50 on every
+    # row, each squared error 2500; the loss is mean_i w_i (y_i - Q_i)^2
     w = torch.tensor([1.0, 0.0, 0.5, 0.5])
-    loss, _ = compute_loss_q(
+    loss, td = compute_loss_q(
         const_critic(0.0),
         const_actor(0.0),
-        const_critic(10.0),
+        const_critic(-100.0),
         b,
         0.98,
         (-50.0, 0.0),
         w,
     )
-    assert loss.item() == pytest.approx((1.0 * 0 + 0 + 0.5 * 0 + 0.5 * 0) / 4)
+    assert td.tolist() == [-50.0] * 4
+    assert loss.item() == pytest.approx(2500.0 * (1.0 + 0.0 + 0.5 + 0.5) / 4)  # 1250
+    assert loss.item() == pytest.approx(1250.0)
+    # Q' = +10 with the upper clip 0: y = r + 9.8 clipped to 0 on every row; Q = 1
     loss, _ = compute_loss_q(
         const_critic(1.0),
         const_actor(0.0),
@@ -273,6 +277,33 @@ def test_sicm_step_loss_is_eq8_on_a_hand_worked_batch():
     assert float(loss) == 3.5
     assert pred.abs().sum() == 0 and torch.equal(target, s2)
     assert m.net[-1].bias.abs().sum() > 0  # the output bias took the step
+
+
+def test_icm_step_loss_is_the_weighted_sum_on_a_hand_worked_batch():
+    """ICM's loss (1 - beta) L_I + beta L_F by hand, beta = 0.2. Every weight and bias
+    at zero but the forward model's last bias at 1: phi = 0, the inverse model predicts
+    a_hat = 0, the forward model predicts (1, 1, 1) against phi(s') = 0. L_I is the
+    batch mean of the squared error summed over the action's dimensions: the actions
+    (1, 2) and (3, 0) cost 5 and 9, L_I = 7 (a per-element mean, torch's mse_loss,
+    would give 3.5); L_F is the batch mean of 1/2 ||phi_hat - phi||^2 = 1/2 * 3 = 1.5.
+    Loss = 0.8 * 7 + 0.2 * 1.5 = 5.9, from before the Adam step."""
+    m = ICM(2, 2, feat_dim=3, hidden=4, beta=0.2)
+    for p in m.parameters():
+        torch.nn.init.zeros_(p)
+    with torch.no_grad():
+        m.forward_model[-1].bias.fill_(1.0)
+    s = s2 = torch.zeros(2, 2)
+    a = torch.tensor([[1.0, 2.0], [3.0, 0.0]])
+    with torch.no_grad():
+        err, inv, fwd, pred, target = m.losses(s, a, s2)
+    assert err.tolist() == [1.5, 1.5] and float(inv) == 7.0 and float(fwd) == 1.5
+    assert torch.equal(pred, torch.ones(2, 3))
+    assert torch.equal(target, torch.zeros(2, 3))
+    pred, target, loss = m.step(s, a, s2)
+    assert float(loss) == pytest.approx(0.8 * 7 + 0.2 * 1.5, rel=1e-6)  # 5.9
+    assert float(loss) == pytest.approx(5.9, rel=1e-6)
+    assert torch.equal(pred, torch.ones(2, 3))  # from before the step
+    assert m.inverse[-1].bias.abs().sum() > 0  # the inverse model took the step
 
 
 @pytest.mark.parametrize("cls", [SICM, ICM])

@@ -10,7 +10,7 @@ import torch
 
 from acder_lite.rollout import StepPool
 from acder_lite.trainer import Trainer
-from conftest import tiny_config
+from conftest import assert_same_run, tiny_config
 
 
 def _strip(rows):
@@ -82,8 +82,9 @@ def test_step_pool_reraises_an_error_of_any_share():
 @pytest.mark.parametrize("method", ["acder", "her-per"])
 def test_two_threads_are_the_one_thread_run(method):
     """threads=2 (envs stepped in two threads, the two losses at once on one intra-op
-    thread each) against threads=1: every progress row, the replay buffer and every
-    weight are equal. PER's priorities come from the critic thread's TD errors."""
+    thread each) against threads=1: every progress row, the replay buffer, every
+    weight and the random stream are equal (conftest.assert_same_run). PER's priorities
+    come from the critic thread's TD errors."""
     runs = []
     for threads in (1, 2):
         cfg = tiny_config(
@@ -92,15 +93,10 @@ def test_two_threads_are_the_one_thread_run(method):
         tr = Trainer(cfg)
         assert cfg.split == (threads == 2) and torch.get_num_threads() == 1
         assert (tr.agent.actor_thread is None) == (threads == 1)
-        rows = _strip(tr.train(progress=False))
-        runs.append((rows, tr.buffer.arrays(), tr.agent.state_dict()))
-    (rows_a, buf_a, net_a), (rows_b, buf_b, net_b) = runs
-    assert rows_a == rows_b and len(rows_a) == 2
-    for key in ("o", "u", "state"):
-        np.testing.assert_array_equal(buf_a[key], buf_b[key], err_msg=key)
-    for net in ("actor", "critic", "actor_targ", "critic_targ"):
-        for k, v in net_a[net].items():
-            assert torch.equal(v, net_b[net][k]), f"{net}.{k}"
+        tr.train(progress=False)
+        runs.append(tr)
+    assert len(runs[0].rows) == 2
+    assert_same_run(*runs)
 
 
 def test_split_update_follows_threads():

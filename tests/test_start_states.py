@@ -50,6 +50,9 @@ def test_selector_pool_holds_successful_states_with_max_reward():
                 cand["state"], buf.state[ep[row], t[row] + 1]
             )  # s_{t+1}
             assert cand["r_int"] == r[row]
+            # the goal of the candidate's own step (_buffer: episode e's goal is e)
+            np.testing.assert_array_equal(cand["goal"], buf.g[ep[row], t[row]])
+            assert (cand["goal"] == cand["state"][0] // 100).all()
     assert len(sel.pool) == 3
 
 
@@ -78,3 +81,19 @@ def test_offer_reads_the_episode_success_it_is_given():
     sel = StartStateSelector(3, 0.8)
     assert sel.offer(batch, r, buf, ok) == 0
     np.testing.assert_array_equal(sel.pool[-1]["state"], buf.state[1, 1])
+
+
+def test_draw_picks_uniformly_among_the_pool():
+    """With alpha = 1 every draw is a pool candidate, each of 3 with probability 1/3
+    (3,000 draws: sd 0.0086 a share)."""
+    buf = _buffer()
+    sel = StartStateSelector(pool_size=5, alpha0=0.8)
+    for e in (0, 2, 5):  # the successful episodes, one candidate each
+        sel.offer(dict(ep=np.array([e]), t=np.array([1])), np.array([0.3]), buf)
+    assert len(sel.pool) == 3
+    sel.alpha = 1.0
+    rng = np.random.default_rng(2)
+    picked = [int(sel.draw(rng)["state"][0] // 100) for _ in range(3000)]
+    share = np.bincount(picked, minlength=6)[[0, 2, 5]] / 3000
+    assert share.sum() == 1.0
+    np.testing.assert_allclose(share, 1 / 3, atol=0.04)

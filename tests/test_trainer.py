@@ -7,7 +7,7 @@ from acder_lite.config import METHODS
 from acder_lite.rewards import goal_oriented_factor, shaped_reward
 from acder_lite.trainer import Trainer, target_clip
 
-from conftest import rows_of, tiny_config
+from conftest import assert_same_run, rows_of, tiny_config
 
 
 def test_same_seed_same_progress(tmp_path):
@@ -53,25 +53,51 @@ def test_bfloat16_same_seed_same_progress(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "method, threads", [("her", 1), ("acder", 1), ("her-per", 1), ("acder", 2)]
+    "method, threads, pause",
+    [
+        ("her", 1, 6),
+        ("acder", 1, 6),
+        ("her-per", 1, 6),
+        ("acder", 2, 6),
+        ("her-ebp", 1, 6),
+        ("her-icm", 1, 6),
+        ("ddpg", 1, 6),
+        ("acder", 1, 5),
+        ("her-per", 1, 5),
+    ],
 )
-def test_resumed_run_equals_uninterrupted(tmp_path, method, threads):
+def test_resumed_run_equals_uninterrupted(tmp_path, method, threads, pause):
     """threads=2: the two losses at once and the envs in two threads, through a
-    checkpoint too (the critic's frozen view follows the loaded weights)."""
+    checkpoint too (the critic's frozen view follows the loaded weights).
+
+    3 cycles an epoch, a row every 2 cycles and at each epoch's end: a pause after 6
+    cycles is at a checkpoint; after 5 it falls mid-epoch, so the row of cycle 4,
+    logged after the cycle-3 checkpoint, is dropped on resume and logged again. Equal
+    at full precision (conftest.assert_same_run), not only to progress.csv's digits."""
     kw = dict(method=method, env="FetchPush-v4", eval_every_cycles=2, threads=threads)
     full = tmp_path / "full"
-    Trainer(tiny_config(epochs=4, **kw), str(full)).train(False)
+    whole = Trainer(tiny_config(epochs=4, **kw), str(full))
+    whole.train(False)
     part = tmp_path / "part"
-    Trainer(tiny_config(epochs=4, **kw), str(part)).train(False, max_cycles=2 * 3)
+    Trainer(tiny_config(epochs=4, **kw), str(part)).train(False, max_cycles=pause)
     assert not (part / "done.json").exists()
+    logged = [int(r["cycle"]) for r in rows_of(part / "progress.csv")]
+    assert logged == {6: [2, 3, 4, 6], 5: [2, 3, 4]}[pause]
     from acder_lite.io import load_torch
 
     ckpt = load_torch(str(part / "checkpoint.pt"))
     cfg = tiny_config(epochs=4, **kw)
     tr = Trainer(cfg, str(part))
     tr.load_state_dict(ckpt)
+    assert tr.cycle == pause // 3 * 3  # the last epoch's end
+    assert [r["cycle"] for r in tr.rows] == logged[: 2 if pause == 5 else 4]
     tr.train(False)
     assert rows_of(part / "progress.csv") == rows_of(full / "progress.csv")
+    assert_same_run(whole, tr)
+    if method == "her-per":
+        np.testing.assert_array_equal(whole.per.tree.tree, tr.per.tree.tree)
+    if method == "her-ebp":
+        np.testing.assert_array_equal(whole.ebp.energy, tr.ebp.energy)
 
 
 def test_checkpoint_holds_buffer_and_rng(tmp_path):
@@ -83,6 +109,17 @@ def test_checkpoint_holds_buffer_and_rng(tmp_path):
     assert ck["buffer"]["n"] == tr.buffer.n == 3 * 2
     np.testing.assert_array_equal(ck["buffer"]["state"], tr.buffer.state[: tr.buffer.n])
     assert set(ck["rng"]) == {"numpy", "torch", "envs", "test_envs"}
+    # the values, not only the names: the streams as the run left them (the checkpoint
+    # is the last thing an epoch does)
+    import torch
+    from acder_lite.envs import env_rng_state
+
+    assert ck["rng"]["numpy"] == tr.rng.bit_generator.state
+    assert torch.equal(ck["rng"]["torch"], torch.get_rng_state())
+    assert ck["rng"]["envs"] == [env_rng_state(e) for e in tr.envs]
+    assert ck["rng"]["test_envs"] == [env_rng_state(e) for e in tr.test_envs]
+    # ... and not the seed's fresh streams
+    assert ck["rng"]["numpy"] != np.random.default_rng(tr.cfg.seed).bit_generator.state
     assert os.path.getsize(tmp_path / "policy.pt") < os.path.getsize(
         tmp_path / "checkpoint.pt"
     )
@@ -115,9 +152,36 @@ def test_every_method_runs_and_logs_its_diagnostics(tmp_path, method):
 
 
 def test_ebp_on_push_and_clip_range():
+    """Also the trainer's EBP wiring: the energies of the stored episodes are
+    `trajectory_energy` of their achieved goals with the env's dt (0.04 s on Push: 20
+    MuJoCo substeps of 2 ms) and the config's weights and clip, the energy_mean column
+    is their mean, and the minibatches' episodes follow the energies' probabilities."""
+    from acder_lite.priority import trajectory_energy
+
     tr = Trainer(tiny_config(method="her-ebp", env="FetchPush-v4", epochs=1))
     tr.train(False)
     assert tr.ebp is not None and tr.ebp.temperature is None  # exponent 1
+    env = tr.envs[0].unwrapped
+    assert tr.dt == env.dt == env.model.opt.timestep * env.n_substeps
+    assert tr.dt == pytest.approx(0.04)
+    n, c = tr.buffer.n, tr.cfg
+    assert n == tr.ebp.n == 3 * 2  # epochs=1, cycles=3, 2 episodes a cycle
+    energy = trajectory_energy(
+        tr.buffer.ag[:n],
+        tr.dt,
+        w_potential=c.ebp_w_potential,
+        w_kinetic=c.ebp_w_kinetic,
+        clip_energy=c.ebp_clip_energy,
+    )
+    np.testing.assert_array_equal(tr.ebp.energy[:n], energy)
+    (row,) = tr.rows  # one row: the epoch's six episodes
+    assert row["energy_mean"] == pytest.approx(energy.mean(), rel=1e-12)
+    p = tr.ebp.probabilities()
+    assert p.max() > 0.5  # far from uniform (1/6): the frequencies below can tell
+    tr.rng = np.random.default_rng(0)
+    ep = np.concatenate([tr.sample_batch()["ep"] for _ in range(400)])  # 12,800 rows
+    freq = np.bincount(ep, minlength=n) / ep.size
+    np.testing.assert_allclose(freq, p, atol=0.015)  # sd <= 0.0045
     assert tr.clip_return == pytest.approx((-50.0, 0.0))
     theirs = Trainer(
         tiny_config(method="her-ebp", env="FetchPush-v4", epochs=1, ebp_temperature=1.0)
@@ -130,6 +194,54 @@ def test_ebp_on_push_and_clip_range():
         tiny_config(method="acder", env="FetchPush-v4", epochs=1, target_clip="wide")
     )
     assert wide.clip_return == pytest.approx((-1.5 / 0.02, 0.8 / 0.02))
+
+
+def test_per_wiring_priorities_weights_and_beta():
+    """The trainer's PER wiring on one update, its minibatch drawn again from the
+    saved random state: each sampled leaf ends up at (|td| + per_eps)^per_alpha of its
+    row's TD error (a leaf sampled twice: the last row's), the importance weights are
+    min_j p_j / p_i at beta = 1 (global max weight), and the critic loss is their
+    weighted mean (w * td^2).mean(). per_beta (beta0 = 0.4, linear to 1 over the
+    epochs * cycles = 6 cycles) is logged after cycles 3 and 6: 0.4 + 0.6 * 3/6 = 0.7
+    and 0.4 + 0.6 * 6/6 = 1."""
+    import torch
+
+    tr = Trainer(tiny_config(method="her-per", env="FetchPush-v4"))  # 2 x 3 cycles
+    rows = tr.train(False)
+    assert [r["per_beta"] for r in rows] == pytest.approx([0.7, 1.0], abs=1e-12)
+    assert tr.per_beta == 1.0
+    c, T = tr.cfg, tr.T
+    tree = tr.per.tree
+    # sampling is stratified (one draw per 1/32 of the total): give leaf 0 half the
+    # total so that it is drawn ~16 times, and "the last write wins" shows
+    rest = tree.total() - tree.leaves()[0]
+    tr.per.update(np.array([0]), np.array([0]), np.array([rest ** (1 / c.per_alpha)]))
+    before = tree.leaves().copy()
+    assert before[0] == pytest.approx(rest, rel=1e-9)
+    state = tr.rng.bit_generator.state
+    batch = tr.sample_batch()
+    tr.rng.bit_generator.state = state
+    out = tr.update_step()
+    leaf = batch["ep"] * T + batch["t"]
+    p = before[leaf]
+    assert (p > 0).all() and len(np.unique(p)) > 1  # a mix of priorities
+    np.testing.assert_allclose(
+        batch["weights"], before[before > 0].min() / p, rtol=1e-6
+    )
+    td = out["td"].numpy().astype(np.float64)
+    last = {int(k): i for i, k in enumerate(leaf)}  # the last row of each leaf
+    # leaf 0 was sampled many times, with TD errors of their own (HER's goals differ)
+    assert (leaf == 0).sum() > 10 and len(np.unique(td[leaf == 0])) > 1
+    want = (np.abs(td[list(last.values())]) + c.per_eps) ** c.per_alpha
+    np.testing.assert_allclose(tree.leaves()[list(last)], want, rtol=1e-12)
+    # untouched leaves stay as they were
+    other = np.setdiff1d(np.arange(tr.per.n_transitions), leaf)
+    np.testing.assert_array_equal(tree.leaves()[other], before[other])
+    w = torch.from_numpy(batch["weights"])
+    assert float(w.min()) < 1.0
+    weighted = float((w * out["td"] ** 2).mean())
+    assert float(out["critic_loss"]) == pytest.approx(weighted, rel=1e-6)
+    assert weighted != pytest.approx(float((out["td"] ** 2).mean()), rel=1e-3)
 
 
 @pytest.mark.parametrize(
