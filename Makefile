@@ -29,8 +29,10 @@ lint: setup
 	.venv/bin/ruff check --no-cache $(LINTED)
 
 # Execute the notebooks and build the HTML book into _build/html (offline, warnings are errors).
+# --all: every page, every time. Sphinx rebuilds only the pages whose own file changed, so a
+# change to acder_lite/ alone would leave the chapters it feeds with their old outputs.
 book: setup
-	.venv/bin/jupyter-book build --warningiserror --keep-going .
+	.venv/bin/jupyter-book build --all --warningiserror --keep-going .
 
 # The chapters in JupyterLab (jupyter-config/): 127.0.0.1 only, a fresh token in the URL it prints,
 # the venv's Python as the kernel, no news or update checks. `ACDER_FAST=1 make lab` for the fast
