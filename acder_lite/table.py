@@ -21,7 +21,7 @@ import math
 import sys
 from pathlib import Path
 
-from .config import ConfigError
+from .config import TASK_PRESETS, ConfigError
 from .report import (
     CUT_WHY,
     PAPER_EPISODES_PER_EPOCH,
@@ -132,7 +132,11 @@ def mean_text(c: CellStat) -> str:
             )
         text += ")"
     elif c.why == "not within budget" and c.budget_epochs:
-        text = f"not within budget ({c.budget_epochs:g} epochs)"
+        text = f"not within budget ({c.budget_epochs:g} epochs"
+        paper = TASK_PRESETS.get(c.env, {}).get("epochs")  # the paper's budget
+        if paper and c.budget_epochs < paper:  # a shorter run cannot say "never"
+            text += f" of the paper's {paper:g}"
+        text += ")"
     elif c.why == CUT_WHY and c.evaluated_epochs is not None:
         text = f"{c.why} (epoch {c.evaluated_epochs:g})"
     else:

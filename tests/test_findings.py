@@ -430,7 +430,8 @@ def test_seed_ratio_and_beside_paper_sentences():
     never = curve_cell("acder", [0.0] * 4)
     assert F.beside_paper_sentence([her, never], tasks=(P,)) == (
         "On Push, DDPG+HER 1,160 against the paper's 11,600 (above our 95% interval, "
-        "1,160 – 1,160) and DDPG+ACDER not within budget (4 epochs) against its 2,200 "
+        "1,160 – 1,160) and DDPG+ACDER not within budget (4 epochs of the paper's 50) "
+        "against its 2,200 "
         "(below our 95% interval, beyond budget)."
     )
     # one still training (no ended seed) is not: its crossing may still come
