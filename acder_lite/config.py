@@ -150,6 +150,9 @@ SICM_INPUTS = ("normalised", "raw")
 SICM_ANGLES = ("euler", "sincos")
 OBS_SETS = ("full", "simplified")
 """Allowed `Config.obs` values (`acder_lite.observations`)."""
+MAX_WORKERS = 500
+"""The most envs a run steps together: `envs.run_env_seeds` gives test env i the seed
+`seed*1000+500+i`, so training env 500 would reset to test env 0's goals."""
 
 # Protocol v1 (experiments/protocol-v1/): what a config.json written before a field
 # existed meant. `Config.from_dict` fills these in, so an old run's recorded config
@@ -189,7 +192,7 @@ class Config:
     default target clip)."""
     seed: int = 0
     """Seeds numpy, torch and every env
-    (worker i gets `seed*1000+i`, test envs `seed*1000+500+i`)."""
+    (worker i gets `seed*1000+i`, test envs `seed*1000+500+i`: `envs.run_env_seeds`)."""
     obs: str = "full"
     """What the policy (and S-ICM) sees of the observation: 'full' (the Fetch vector:
     positions, rotations, velocities) or 'simplified' (paper, section V-E, for the UR5:
@@ -200,7 +203,8 @@ class Config:
     # --- the paper protocol
     # (Baselines' DDPG+HER, 4 MPI workers emulated in one process)
     workers: int = 4
-    """W envs stepped together; stands in for the paper's W MPI workers."""
+    """W envs stepped together; stands in for the paper's W MPI workers. At most
+    `MAX_WORKERS`: past it a training env would share its seed with a test env."""
     epochs: int | None = None
     """Training epochs; the run's budget.
     None: the task preset (paper: Reach 25, Push 50, Pick&Place 100, Multi-step Push
@@ -522,6 +526,12 @@ class Config:
                 continue
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 bad(name, "an integer >= 1")
+        if self.workers > MAX_WORKERS:
+            bad(
+                "workers",
+                f"an integer in [1, {MAX_WORKERS}] (envs.run_env_seeds: worker "
+                f"{MAX_WORKERS} would get test env 0's seed)",
+            )
         if self.threads >= 2**31:  # torch.set_num_threads takes a C int
             bad("threads", "an integer >= 1 below 2**31")
         # 0 test episodes: every evaluation a NaN (progress.csv, done.json, export)

@@ -435,7 +435,7 @@ def pool_positions(trainer, env=None) -> dict:
     pool = list(trainer.selector.pool)
     env = E.make_env(trainer.cfg.env, seed=0) if env is None else env
     n_state, n_goal = E.state_size(env), trainer.dims["g"]
-    n_obs = env._get_obs()["observation"].size
+    n_obs = E.observe(env)["observation"].size
     obs = []
     saved = E.get_state(env)
     for c in pool:
@@ -446,7 +446,7 @@ def pool_positions(trainer, env=None) -> dict:
                 "by this version"
             )
         E.set_state(env, c["state"])
-        obs.append(np.array(env._get_obs()["observation"], np.float64))
+        obs.append(np.array(E.observe(env)["observation"], np.float64))
     E.set_state(env, saved)
     states = np.stack([c["state"] for c in pool]) if pool else np.zeros((0, n_state))
     obs = np.array(obs).reshape(len(pool), n_obs)

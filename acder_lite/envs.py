@@ -54,6 +54,15 @@ def _import_robotics():
     return gym
 
 
+def run_env_seeds(seed: int, workers: int, test: bool = False) -> list[int]:
+    """The seeds of a run's W training envs (`seed * 1000 + i`) or of its W test envs
+    (`seed * 1000 + 500 + i`): `Trainer` makes its envs with these, and a run's test
+    episodes are replayed from them (`multistep.solved_test_starts`). Trap: past 500
+    workers a training env would share its seed with a test env, and past 1000 with
+    the next seed's run."""
+    return [seed * 1000 + (500 if test else 0) + i for i in range(workers)]
+
+
 def make_env(
     env_id: str, seed: int | None = None, obs: str = "full", fast: bool = True
 ):
@@ -149,7 +158,7 @@ def obs_names(env, full: bool = False) -> list[str]:
 def goal_names(env) -> list[str]:
     """A name for each entry of the goal: goal.x/y/z, or goal0.x ... goal1.z for the two
     blocks of FetchPushMultiStep-v0 (block 0's target, then block 1's)."""
-    n = env._get_obs()["desired_goal"].size
+    n = observe(env)["desired_goal"].size
     if n == 3:
         return [f"goal.{c}" for c in "xyz"]
     return [f"goal{i}.{c}" for i in range(n // 3) for c in "xyz"]
@@ -180,6 +189,13 @@ def set_state(env, state: np.ndarray, spec: int = STATE_SPEC) -> None:
     mujoco.mj_forward(env.model, env.data)
 
 
+def observe(env) -> dict:
+    """The observation dict (observation, achieved_goal, desired_goal) of the env's
+    current state, without stepping: gymnasium-robotics' `_get_obs`, the one private
+    method of the env the rest of the package needs, named once here."""
+    return env._get_obs()
+
+
 def restart_from(env, state: np.ndarray, goal: np.ndarray | None = None) -> dict:
     """Start a new episode from a stored state (DESIGN.md, "Start states").
 
@@ -191,7 +207,7 @@ def restart_from(env, state: np.ndarray, goal: np.ndarray | None = None) -> dict
     set_state(env, state)
     if goal is not None:
         env.goal = np.array(goal, dtype=np.float64)
-    return env._get_obs()
+    return observe(env)
 
 
 def step(env, action: np.ndarray) -> tuple[dict, bool]:

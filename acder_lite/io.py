@@ -406,12 +406,21 @@ trainer adds `obs` (`Config.obs`, the observation set); a policy written before 
 none and saw "full"."""
 
 
+def _nonfinite(a) -> str:
+    """How many entries of a tensor or array are NaN or infinite, as words."""
+    if isinstance(a, torch.Tensor):  # numpy has no bfloat16
+        a = a.detach().float().numpy()
+    bad = ~np.isfinite(np.asarray(a, dtype=np.float64))
+    return f"{int(bad.sum())} of {bad.size} values NaN or infinite"
+
+
 def check_policy(d, path: str | None = None) -> None:
     """Raise CheckpointError (one line, naming `path`) unless `d` is a policy as
     `Policy.state_dict` writes it: its keys, the types of its numbers, and every actor
     tensor of the shape its recorded `shape` implies ([in_dim] + [hidden] * layers +
     [act_dim] Linear layers, in_dim = norm.o + norm.g), normaliser statistics of the
-    sizes in `norm`. Nothing is built; a valid policy passes unchanged."""
+    sizes in `norm`, and every weight and statistic finite (a diverged run's NaN weights
+    are refused, not run). Nothing is built; a valid policy passes unchanged."""
     where = f"checkpoint {path!r}: its policy" if path is not None else "policy"
 
     def bad(what: str):
@@ -473,6 +482,10 @@ def check_policy(d, path: str | None = None) -> None:
             bad(f"actor {k} is a {type(t).__name__}, not a float tensor")
         if tuple(t.shape) != shp:
             bad(f"actor {k} has shape {tuple(t.shape)}, its shape record implies {shp}")
+        # Trap: a diverged run saves NaN weights without complaint, and a NaN action
+        # reaches MuJoCo (which warns and resets) or an exported robot controller.
+        if not bool(torch.isfinite(t).all()):
+            bad(f"actor {k} holds {_nonfinite(t)}: the run that wrote it diverged")
     for k, size in (("o_norm", n["o"]), ("g_norm", n["g"])):
         st = d[k]
         if not isinstance(st, dict):
@@ -483,6 +496,8 @@ def check_policy(d, path: str | None = None) -> None:
                 bad(f"{k}.{a} is a {type(v).__name__}, not a numeric array")
             if v.shape != (size,):
                 bad(f"{k}.{a} has shape {v.shape}, norm records {(size,)}")
+            if not np.isfinite(v).all():
+                bad(f"{k}.{a} holds {_nonfinite(v)}: the run that wrote it diverged")
         if not _is_int(st.get("count")) or st["count"] < 0:
             bad(f"{k}.count is {st.get('count')!r}, not an integer >= 0")
 

@@ -300,19 +300,15 @@ def start_on_targets(seeds, resets: int) -> dict:
     return dict(both=both, one=one)
 
 
-def trainer_test_seeds(seed: int, workers: int) -> list[int]:
-    """The seeds `trainer.Trainer` gives a run's test envs (`seed * 1000 + 500 + i`,
-    one per worker), so that a run's test episodes can be replayed."""
-    return [seed * 1000 + 500 + i for i in range(workers)]
-
-
 def solved_test_starts(config: dict, evaluations: int) -> np.ndarray:
     """For a run of this task with `config` (config.json's "config": seed, workers,
     test_episodes), how many of each evaluation's test episodes start with both blocks
     on their targets, for its first `evaluations` evaluations (`Trainer.evaluate`
     resets each test env `test_episodes` times per evaluation, and nothing else draws
     from their random streams). Shape (evaluations,)."""
-    seeds = trainer_test_seeds(config["seed"], config["workers"])
+    from .envs import run_env_seeds
+
+    seeds = run_env_seeds(config["seed"], config["workers"], test=True)
     both = start_on_targets(seeds, evaluations * config["test_episodes"])["both"]
     return both.reshape(evaluations, -1).sum(axis=1)
 

@@ -203,7 +203,7 @@ def policy_env(policy: dict, path: str, seed: int | None = None):
     from .io import check_policy_fits
 
     env = E.make_env(policy["env"], seed=seed, obs=policy_obs(policy))
-    first = env._get_obs()
+    first = E.observe(env)
     try:
         check_policy_fits(
             policy,

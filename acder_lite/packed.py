@@ -92,7 +92,7 @@ def replay(env, state0: np.ndarray, u: np.ndarray, g: np.ndarray) -> dict:
     T = u.shape[0]
     E.set_state(env, state0)
     env.goal = np.array(g, dtype=np.float64)
-    obs = env._get_obs()
+    obs = E.observe(env)
     o = np.empty((T + 1, obs["observation"].size), np.float32)
     ag = np.empty((T + 1, obs["achieved_goal"].size), np.float32)
     state = np.empty((T + 1, state0.size), np.float64)
@@ -110,7 +110,7 @@ def rebuild(env, meta: dict, chunks: list[dict]) -> dict:
     env of the run's task and observation set), then checked against the digest taken
     when it was packed."""
     n, T = int(meta["n"]), int(meta["T"])
-    obs = env._get_obs()
+    obs = E.observe(env)
     want = dict(
         state0=(E.state_size(env),),
         u=(T, env.action_space.shape[0]),

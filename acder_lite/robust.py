@@ -71,6 +71,9 @@ PAPER_UR5 = {"FetchReach-v4": 19, "FetchPush-v4": 16, "FetchPickAndPlace-v4": 17
 UR5 at 5 cm tolerance ("19 out of 20 trials in reach task, 16 out of 20 trials in push
 task, while 17 out of 20 in pick&place task")."""
 PAPER_TRIALS = 20
+MAX_TRIALS = 1000
+"""The most trials a bench takes: it keeps one env per trial for its whole run (about
+10 MB each, measured on Pick&Place), so 1000 trials hold about 10 GB."""
 
 CSV_COLUMNS = [
     "knob",
@@ -85,6 +88,17 @@ CSV_COLUMNS = [
 
 
 # ----- the bench
+
+
+def check_trials(trials) -> None:
+    """ConfigError (one line) unless `trials` is an integer in [1, MAX_TRIALS]."""
+    if isinstance(trials, bool) or not isinstance(trials, int):
+        raise ConfigError(f"trials={trials!r} is not allowed: an integer")
+    if not 1 <= trials <= MAX_TRIALS:
+        raise ConfigError(
+            f"trials={trials} is not allowed: an integer in [1, {MAX_TRIALS}] "
+            "(one env of about 10 MB each, all kept at once)"
+        )
 
 
 def success(ag: np.ndarray, g: np.ndarray, tolerance: float) -> np.ndarray:
@@ -150,8 +164,7 @@ def run_bench(
         raise ConfigError(
             f"tolerance={tolerance!r} is not allowed: a number > 0 (metres)"
         )
-    if not (isinstance(trials, int) and trials >= 1):
-        raise ConfigError(f"trials={trials!r} is not allowed: an integer >= 1")
+    check_trials(trials)
     bench = Bench(env_id, obs, trials, seed)
     knobs = parse_perturb(None, env_id, bench.T) if knobs is None else knobs
     done: dict[tuple, np.ndarray] = {}
@@ -711,7 +724,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--trials",
         type=int,
         default=PAPER_TRIALS,
-        help=f"trials per level (default: {PAPER_TRIALS}, the paper's)",
+        help=f"trials per level, at most {MAX_TRIALS} "
+        f"(default: {PAPER_TRIALS}, the paper's)",
     )
     p.add_argument(
         "--tolerance",
@@ -775,8 +789,7 @@ def run(args) -> int:
 
     from .runfiles import versions
 
-    if args.trials < 1:
-        raise ConfigError(f"trials={args.trials} is not allowed: an integer >= 1")
+    check_trials(args.trials)
     if not (math.isfinite(args.tolerance) and args.tolerance > 0):
         raise ConfigError(
             f"tolerance={args.tolerance:g} is not allowed: a number > 0 (metres)"

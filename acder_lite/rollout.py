@@ -151,7 +151,7 @@ def run_episodes(envs: list, act, T: int, starts=None, pool=None) -> dict:
     (last step), novel.
     """
     W = len(envs)
-    first = envs[0]._get_obs()
+    first = E.observe(envs[0])
     od, gd, sd = (
         first["observation"].size,
         first["desired_goal"].size,

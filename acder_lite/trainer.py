@@ -100,17 +100,17 @@ class Trainer:
         # "full" is the env as made, so the rest of the trainer reads whichever
         # vector it is given
         self.envs = [
-            E.make_env(cfg.env, seed=cfg.seed * 1000 + i, obs=cfg.obs)
-            for i in range(cfg.workers)
+            E.make_env(cfg.env, seed=s, obs=cfg.obs)
+            for s in E.run_env_seeds(cfg.seed, cfg.workers)
         ]
         self.test_envs = [
-            E.make_env(cfg.env, seed=cfg.seed * 1000 + 500 + i, obs=cfg.obs)
-            for i in range(cfg.workers)
+            E.make_env(cfg.env, seed=s, obs=cfg.obs)
+            for s in E.run_env_seeds(cfg.seed, cfg.workers, test=True)
         ]
         n_step = min(cfg.workers, cfg.step_threads or cfg.threads)
         self.pool = StepPool(n_step) if n_step > 1 else None
         env0 = self.envs[0]
-        obs = env0._get_obs()
+        obs = E.observe(env0)
         self.T = E.horizon(cfg.env)
         self.dt = float(env0.dt)
         self.reward_fn = env0.compute_reward

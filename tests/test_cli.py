@@ -33,6 +33,8 @@ def one_line_error(p, *needles):
         (["--env", "CartPole-v1"], ["env", "FetchReach-v4"]),
         (["--method", "sac"], ["method", "acder"]),
         (["--workers", "two"], ["--workers", "invalid int"]),
+        # worker 500 would reset to test env 0's goals (and 100000 took 17 GB)
+        (["--workers", "501"], ["workers=501", "[1, 500]", "test env 0"]),
         (["--lr-actor", "-0.001"], ["lr_actor", "> 0"]),
         (["--batch-size", "0"], ["batch_size", ">= 1"]),
         (["--eta", "1.5"], ["eta", "(0, 1)"]),

@@ -65,6 +65,21 @@ def test_seeding_is_deterministic():
     np.testing.assert_array_equal(a.goal, b.goal)
 
 
+def test_a_runs_training_and_test_envs_never_share_a_seed():
+    """Up to `MAX_WORKERS` a run's W training and W test envs (and the next seed's
+    run's) have seeds of their own; one worker more and two coincide."""
+    from acder_lite.config import MAX_WORKERS
+
+    def seeds(seed, w):
+        return E.run_env_seeds(seed, w) + E.run_env_seeds(seed, w, test=True)
+
+    both = seeds(3, MAX_WORKERS) + seeds(4, MAX_WORKERS)
+    assert len(set(both)) == len(both) == 4 * MAX_WORKERS
+    assert E.run_env_seeds(3, 2, test=True) == [3500, 3501]
+    more = seeds(3, MAX_WORKERS + 1)
+    assert len(set(more)) < len(more)
+
+
 def test_step_matches_the_env_step_up_to_the_kinematics_refresh():
     a, b = E.make_env("FetchPush-v4", seed=2), E.make_env("FetchPush-v4", seed=2)
     u = np.array([0.5, -0.2, 0.1, 0.0])

@@ -398,15 +398,15 @@ def test_start_on_targets_is_the_envs_success_rule_at_reset():
 
 
 def test_the_trainers_test_envs_are_replayed():
-    """`trainer_test_seeds` is the trainer's rule: its test envs reset to the same goals
+    """`envs.run_env_seeds` is the trainer's rule: its test envs reset to the same goals
     as envs made with those seeds; `solved_test_starts` counts per evaluation."""
     from acder_lite.trainer import Trainer
     from conftest import tiny_config
 
     cfg = tiny_config(env=ID, method="her", seed=3, workers=2)
     tr = Trainer(cfg)
-    seeds = M.trainer_test_seeds(3, 2)
-    assert seeds == [3500, 3501]
+    seeds = E.run_env_seeds(3, 2, test=True)
+    assert seeds == [3500, 3501] and E.run_env_seeds(3, 2) == [3000, 3001]
     for env, s in zip(tr.test_envs, seeds):
         mine = E.make_env(ID, seed=s)
         np.testing.assert_array_equal(env.goal, mine.goal)

@@ -439,7 +439,8 @@ def test_cli_table_json_and_csv(cli, reach_policy, tmp_path):
             ["env='FetchPush-v4'", "trained on FetchReach-v4", "--env FetchReach-v4"],
         ),
         (["--obs", "simplified"], ["obs='simplified'", "obs='full'", "--obs full"]),
-        (["--trials", "0"], ["trials=0", ">= 1"]),
+        (["--trials", "0"], ["trials=0", "[1, 1000]"]),
+        (["--trials", "100000"], ["trials=100000", "[1, 1000]", "10 MB"]),
     ],
 )
 def test_cli_bad_input_is_one_line(cli, reach_policy, args, needles):

@@ -241,6 +241,16 @@ def _not_a_number(pol):
     return pol, "layers"
 
 
+def _nan_weight(pol):  # a diverged run: its actions would be NaN
+    pol["actor"]["net.2.weight"][3, 5] = float("nan")
+    return pol, "net.2.weight holds 1 of 65536 values NaN or infinite"
+
+
+def _inf_norm(pol):  # the normaliser's sums overflowed
+    pol["g_norm"]["sumsq"][0] = np.inf
+    return pol, "g_norm.sumsq holds 1 of 3 values NaN or infinite"
+
+
 BROKEN_POLICIES = [
     _wrong_actor,
     _missing_layer,
@@ -249,6 +259,8 @@ BROKEN_POLICIES = [
     _in_dim,
     _no_key,
     _not_a_number,
+    _nan_weight,
+    _inf_norm,
 ]
 
 
@@ -290,12 +302,19 @@ def test_eval_refuses_files_that_are_not_ours(tmp_path, cli):
     pol["env"] = "../../etc/passwd"
     torch.save(dict(policy=pol), tmp_path / "env.pt")
     cases.append(("env.pt", "FetchReach-v4"))
+    pol, _ = _nan_weight(_policy())
+    torch.save(dict(policy=pol), tmp_path / "nan.pt")
+    cases.append(("nan.pt", "diverged"))
     for name, needle in cases:
         one_line(
             cli("eval", "--checkpoint", str(tmp_path / name), "--episodes", "1"),
             name,
             needle,
         )
+    # export: a NaN controller is not written for a robot
+    out = tmp_path / "nan.ts"
+    one_line(cli("export", str(tmp_path / "nan.pt"), "--out", str(out)), "diverged")
+    assert not out.exists()
 
 
 def test_an_incomplete_checkpoint_is_refused(tmp_path, fresh):
