@@ -117,6 +117,28 @@ def percent(share: float, digits: int = 3) -> str:
     return f"{100 * share:.{digits}g}%"
 
 
+def percent_range(low: float, high: float, digits: int = 2) -> str:
+    """An interval of shares with one number of decimals for both ends, enough for
+    `digits` significant digits of the smaller nonzero one: '0.43% to 1.00%', not
+    '0.43% to 1%'."""
+    import math
+
+    ends = [100 * abs(x) for x in (low, high) if x]  # a 0 end takes the other's
+    places = digits - 1 - math.floor(math.log10(min(ends))) if ends else 0
+    places = max(0, places)
+    return f"{100 * low:.{places}f}% to {100 * high:.{places}f}%"
+
+
+def vector_text(x, digits: int = 3) -> str:
+    """A vector as the chapters print it: `digits` decimals, a space where the sign
+    of a positive number goes (the columns line up) and no negative zero, which numpy
+    prints for a tiny negative rounded away: '[ 1.363  0.000 -0.138]'."""
+    import numpy as np
+
+    values = np.round(np.asarray(x, dtype=float).ravel(), digits) + 0.0  # -0. -> 0.
+    return "[" + " ".join(f"{v: .{digits}f}" for v in values) + "]"
+
+
 def progress_sentence(
     label: str, seeds: list[dict], paper_epochs: int, started: bool = False
 ) -> str:
@@ -190,7 +212,7 @@ def chance_sentence(progress: dict[str, list[dict]], solved: int, resets: int) -
         lo, hi = wilson_interval(k, n)
         each.append(
             f"{lab} succeeded in {k:,} of {n:,} test episodes ({percent(k / n, 2)}; "
-            f"95% interval {percent(lo, 2)} to {percent(hi, 2)})"
+            f"95% interval {percent_range(lo, hi)})"
         )
         verdict.setdefault(versus_chance(k, n, chance), []).append(lab)
     words = {

@@ -38,6 +38,8 @@ from .report import (
     threshold,
 )
 from .table import (
+    METHOD_LABELS,
+    TASK_LABELS,
     episodes,
     label,
     mean_text,
@@ -257,6 +259,18 @@ def sentence(parts: list[str]) -> str:
     return (
         text[:1].upper() + text[1:] + ("." if text and not text.endswith(".") else "")
     )
+
+
+def after_colon(text: str) -> str:
+    """A sentence of this module as it reads after a colon of the book's prose: its
+    first word in lower case ('On Reach ...' -> 'on Reach ...'), unless that word is a
+    name or an acronym ('DDPG+ACDER', 'ACDER, ...', 'S-ICM' keep theirs)."""
+    word = text.split(" ", 1)[0].rstrip(",:;.")
+    names = {
+        x.split(" ", 1)[0] for x in [*TASK_LABELS.values(), *METHOD_LABELS.values()]
+    }
+    ordinary = word[:1].isupper() and (word[1:].islower() or word == "A")
+    return text[:1].lower() + text[1:] if ordinary and word not in names else text
 
 
 def cut_texts(cells: list[CellStat]) -> tuple[str, str]:

@@ -9,6 +9,11 @@ Missing runs come back in the returned status ("not run yet"), never as an error
 `seed_ends` says where each seed's curve ends; `plot_diagnostics` draws ACDER's
 diagnostics of one run.
 
+The figures are drawn for the book's text column: `WIDTH` inches wide at `DPI`, text at
+least `FONT` points, and a legend of learning curves under its axes (`legend_below`),
+where it covers no curve. A caller that makes its own axes for these functions should
+make its figure alike: `plt.subplots(figsize=(plots.WIDTH, height), dpi=plots.DPI)`.
+
 Trap: on FetchReach our epochs hold 80 episodes, so the top axis (Table I's unit) is not
 our episode count there; the x axis is epochs on every task, as in the paper's figures.
 """
@@ -39,6 +44,38 @@ COLORS = {
     "acder-sincos": "C9",
 }
 """One colour per method or experiment, the same in every figure."""
+
+WIDTH = 7.0
+"""Width of the package's figures (inches): the book's text column, about 690 CSS px, so
+the page does not shrink them and their text shows at the size it is set in."""
+DPI = 150
+"""Dots per inch of the package's figures: a `WIDTH` figure is about 1050 px, sharp
+where the page shows it at the column's width (or on a high-density screen)."""
+FONT = 9
+"""Font size (points) of legends and secondary labels, the smallest text of a figure."""
+LEGEND_DROP = 38
+"""Points from an axes' bottom edge to the top of `legend_below`'s legend: room for the
+tick labels and the x label."""
+
+
+def legend_below(ax, ncol: int | None = None):
+    """The legend of `ax` under its x label, outside the axes, so it covers no data (a
+    learning curve can pass through any corner): in two columns unless a label is too
+    long for half the figure's width (`ncol` to choose). Returns the legend."""
+    from matplotlib.transforms import offset_copy
+
+    if ncol is None:
+        longest = max(len(t) for t in ax.get_legend_handles_labels()[1])
+        ncol = 2 if longest <= 32 else 1
+    below = offset_copy(ax.transAxes, fig=ax.figure, y=-LEGEND_DROP, units="points")
+    return ax.legend(
+        loc="upper center",
+        bbox_to_anchor=(0.5, 0),
+        bbox_transform=below,
+        ncol=ncol,
+        fontsize=FONT,
+        frameon=False,
+    )
 
 
 def draw_mean(ax, m: report.MeanCurve, threshold: float | None, color=None, label=None):
@@ -72,7 +109,7 @@ def style_axes(
     xmax: float | None = None,
 ) -> None:
     """Axes of a success-rate plot: epochs below, Table I's episodes on top,
-    the threshold dashed."""
+    the threshold dashed, the legend (if any) under the axes."""
     if threshold is not None:
         ax.axhline(threshold, color="gray", ls="--", lw=0.8)
     ax.set_xlabel("epochs")
@@ -87,11 +124,11 @@ def style_axes(
             lambda n: n / report.PAPER_EPISODES_PER_EPOCH,
         ),
     )
-    top.set_xlabel("episodes in Table I's unit (400 an epoch)", fontsize=8)
+    top.set_xlabel("episodes in Table I's unit (400 an epoch)", fontsize=FONT)
     if title:
         ax.set_title(title, fontsize=10, loc="left")
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=8, loc="lower right")
+        legend_below(ax)
 
 
 def plot_mean_curves(
@@ -214,7 +251,7 @@ def plot_diagnostics(
     figure (with `title` above the panels)."""
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 2, figsize=(8, 4.6), sharex=True)
+    fig, axes = plt.subplots(2, 2, figsize=(WIDTH, 4.8), dpi=DPI, sharex=True)
     for ax, (key, ylabel) in zip(axes.flat, DIAGNOSTICS.items()):
         pts = [(r[x], r[key]) for r in rows if isinstance(r.get(key), (int, float))]
         ax.set_ylabel(ylabel)
@@ -227,7 +264,7 @@ def plot_diagnostics(
         if key == "r_int_mean":
             ax.axhline(eta, color="gray", ls="--", lw=0.8, label=f"$\\eta$ = {eta:g}")
             ax.set_yscale("log")
-            ax.legend(fontsize=8)
+            ax.legend(fontsize=FONT)
         elif key == "lambda_mean":
             ax.set_ylim(0.975, 1.525)
         else:
@@ -268,11 +305,12 @@ def task_panels(
 ):
     """One full-width panel per task, the mean curves of `names` on it (her-ebp left out
     where there is no object); a panel where some of them have no runs names those in
-    its legend ("not run yet: ..."). Returns (figure, {task: {name: status}})."""
+    its legend ("not run yet: ..."), which `legend_below` puts under the panel. Returns
+    (figure, {task: {name: status}})."""
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(
-        len(tasks), 1, figsize=(10, 3.4 * len(tasks)), squeeze=False
+        len(tasks), 1, figsize=(WIDTH, 3.9 * len(tasks)), dpi=DPI, squeeze=False
     )
     statuses = {}
     for ax, env in zip(axes[:, 0], tasks):
@@ -311,8 +349,8 @@ def plot_seed_column(
     ylabel: str,
     labels: dict | None = None,
 ) -> int:
-    """One thin line per seed of a progress.csv column against epochs (e.g. r_int_mean).
-    Returns how many seeds had the column."""
+    """One thin line per seed of a progress.csv column against epochs (e.g. r_int_mean),
+    the legend under the axes. Returns how many seeds had the column."""
     labels = labels or METHOD_LABELS
     drawn = 0
     for name in names:
@@ -339,7 +377,7 @@ def plot_seed_column(
     ax.set_ylabel(ylabel)
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=8)
+        legend_below(ax)
     return drawn
 
 
@@ -396,4 +434,4 @@ def plot_block_paths(ax, ep: dict, env) -> None:
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_aspect("equal")
-    ax.legend(fontsize=8, loc="best")
+    ax.legend(fontsize=FONT, loc="best")

@@ -168,6 +168,13 @@ def interval_text(c: CellStat) -> str:
     return f"{low if low == high else f'{low} – {high}'} ({c.share_crossing:.0%})"
 
 
+def interval_span(c: CellStat) -> str:
+    """The 95% interval alone, as `interval_text` writes it without the share of
+    resamples crossing: '2,800 – 3,200', '– (one seed)', '–'."""
+    text = interval_text(c)
+    return text.rsplit(" (", 1)[0] if text.endswith("%)") else text
+
+
 def per_seed_text(c: CellStat) -> str:
     if not c.n:
         return "–"
@@ -208,6 +215,75 @@ def table_rows(cells: list[CellStat]) -> tuple[tuple, list[tuple]]:
         for c in cells
     ]
     return HEADER, rows
+
+
+BOOK_HEADER = ("Task", "Method", "Ours: mean curve, 95% interval", "Paper")
+"""Table I as the book shows it: the columns a reader compares (`book_rows`)."""
+
+DETAIL_HEADER = ("Task", "Method", "Seeds", "Resamples crossing", HEADER[5])
+"""The rest of `HEADER`'s columns, per cell (`detail_rows`)."""
+
+
+def _first_of_task(cells: list[CellStat]) -> list[str]:
+    """Each row's task label, only where the task changes ('' below it)."""
+    envs = [c.env for c in cells]
+    return [
+        task_label(e) if i == 0 or envs[i - 1] != e else "" for i, e in enumerate(envs)
+    ]
+
+
+def ours_text(c: CellStat) -> str:
+    """The book's Table I cell of ours: the mean-curve crossing, then (on a line of
+    its own) the 95% interval and how many seeds are still training."""
+    nbsp = "\u00a0"  # a narrow column breaks lines between these words, not inside
+    lines = [mean_text(c).replace("(ours ", f"(ours{nbsp}")]
+    span = interval_span(c).replace(" – ", f"{nbsp}–{nbsp}")
+    if span != "–":
+        lines.append("one seed: no interval" if c.n == 1 else f"95%: {span}")
+    if c.unfinished:
+        lines.append(f"{c.unfinished} of {count(c.n, 'seed')} still training")
+    elif c.hold and c.planned is not None and c.n < c.planned:
+        lines.append("on hold")
+    return "\n".join(lines)
+
+
+def book_rows(cells: list[CellStat]) -> tuple[tuple, list[tuple]]:
+    """(header, rows) of Table I as the book shows it: task (once per task), method,
+    ours (`ours_text`) and the paper's. `detail_rows` has the other columns of
+    `table_rows`, so every fact of the full table is in one of the two."""
+    rows = [
+        (t, label(c.name), ours_text(c), episodes(c.paper))
+        for t, c in zip(_first_of_task(cells), cells)
+    ]
+    return BOOK_HEADER, rows
+
+
+def detail_rows(cells: list[CellStat]) -> tuple[tuple, list[tuple]]:
+    """(header, rows) of the per-seed detail below the book's Table I: seeds against
+    the plan, the share of resamples crossing, each seed's own crossing."""
+    rows = [
+        (
+            t,
+            f"`{c.name}`",
+            seeds_text(c),
+            "–" if interval_span(c).startswith("–") else f"{c.share_crossing:.0%}",
+            per_seed_text(c),
+        )
+        for t, c in zip(_first_of_task(cells), cells)
+    ]
+    return DETAIL_HEADER, rows
+
+
+def book_html(cells: list[CellStat], title: str, caption: str = "") -> str:
+    """Table I (or another set of cells) for the book: `book_rows` with its caption,
+    then `detail_rows` in a collapsed <details> below it."""
+    main = to_html(*book_rows(cells), caption=(title, caption))
+    detail = to_html(*detail_rows(cells))
+    summary = (
+        f"{title}, per seed: seeds finished against the plan, the share of bootstrap "
+        "resamples that cross, each seed's own first crossing"
+    )
+    return f"{main}<details><summary>{html.escape(summary)}</summary>{detail}</details>"
 
 
 def ratio_text(r: RatioStat) -> str:
@@ -255,22 +331,32 @@ def to_markdown(header, rows) -> str:
     return "\n".join(lines) + "\n"
 
 
-def to_html(header, rows) -> str:
+def to_html(header, rows, caption: tuple[str, str] | None = None) -> str:
     """The same table as HTML: the book renders it as a table (myst-nb shows a markdown
     output's pipes as text, since its markdown outputs are CommonMark, which has no
-    tables)."""
+    tables). A cell's line breaks ("\\n") become <br>; `caption`, (title, text), is
+    written above the table, the title in bold."""
 
     def cell(tag, x):
         text = html.escape(str(x))
         while text.count("`") >= 2:  # `name` -> <code>name</code>
             text = text.replace("`", "<code>", 1).replace("`", "</code>", 1)
+        text = text.replace("\n", "<br>")
         return f"<{tag}>{text}</{tag}>"
 
     head = "".join(cell("th", h) for h in header)
     body = "".join(
         "<tr>" + "".join(cell("td", x) for x in row) + "</tr>" for row in rows
     )
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+    top = ""
+    if caption:
+        title, text = (html.escape(x) for x in caption)
+        # above the table (the theme puts captions below), and a gap above it
+        top = (
+            '<caption style="caption-side: top; text-align: left; padding-top: 1.5em">'
+            f"<strong>{title}.</strong> {text[:1].upper() + text[1:]}</caption>"
+        )
+    return f"<table>{top}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
 CAPTION = (

@@ -41,7 +41,7 @@ def angle_wraps(rot: np.ndarray) -> np.ndarray:
 
 
 GIMBAL_COS = 0.2
-"""`near_gimbal_lock`'s bound on |cos(pitch)|: a pitch within 11.5 degrees of +-90."""
+"""`near_gimbal_lock`'s bound on |cos(pitch)|: a pitch within 11.5° of ±90°."""
 
 
 def near_gimbal_lock(rot: np.ndarray, cos_below: float = GIMBAL_COS) -> np.ndarray:
@@ -116,7 +116,7 @@ def table_rows(rows: list[dict]) -> tuple[list[str], list[list[str]]]:
             f"`{r['name']}`",
             "yes" if r["curiosity_reward"] else "no",
             str(r["seeds"]),
-            f"{r['step_share']:.2%} ({r['step_share_min']:.2%} - "
+            f"{r['step_share']:.2%} ({r['step_share_min']:.2%} – "
             f"{r['step_share_max']:.2%})",
             f"{r['episode_share']:.0%}",
             f"{r['success']:.2f}",
@@ -200,7 +200,7 @@ def buffer_sentence(d: dict) -> str:
     how = ", S-ICM on (sin, cos)" if c.get("sicm_angles") == "sincos" else ""
     text = (
         f"In the replay buffer of `{d['run']}` ({d['method']}{how}, "
-        f"{d['episodes']:,} episodes), {c['share_at_clip']:.1%} of {c['rows']:,} "
+        f"{d['episodes']:,} episodes), {c['share_at_clip']:.2%} of {c['rows']:,} "
         f"minibatch rows sit at Eq. 4's clip and {w['share_of_rows']:.2%} of all rows "
         f"are wraps; {at_clip}, and {picked}"
         + (
@@ -216,7 +216,7 @@ def buffer_sentence(d: dict) -> str:
             "" if k["share_at_clip"] is None else f", {k['share_at_clip']:.0%} of those"
         )
         text += (
-            f" A block near gimbal lock (pitched within {deg:.1f} degrees of +-90, on "
+            f" A block near gimbal lock (pitched within {deg:.1f}° of ±90°, on "
             f"a side face) is in {k['share_of_rows']:.0%} of the rows{at_clip} at "
             "the clip."
         )

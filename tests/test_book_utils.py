@@ -11,6 +11,7 @@ from acder_lite.book_utils import (
     evaluation_counts,
     progress_sentence,
     solved_starts_sentence,
+    vector_text,
     versus_chance,
 )
 
@@ -54,7 +55,7 @@ def test_chance_sentence_pools_seeds_and_follows_the_numbers():
     s = chance_sentence({"DDPG+HER": [her], "DDPG+ACDER": [acder]}, 66, 10_000)
     assert s == (
         "Over all their evaluations DDPG+HER succeeded in 21 of 3,200 test episodes "
-        "(0.66%; 95% interval 0.43% to 1%) and DDPG+ACDER succeeded in 19 of 3,200 "
+        "(0.66%; 95% interval 0.43% to 1.00%) and DDPG+ACDER succeeded in 19 of 3,200 "
         "test episodes (0.59%; 95% interval 0.38% to 0.93%). Both blocks already "
         "start on their targets in 0.66% of the env's resets (66 of 10,000, no step "
         "taken): taking a rate as above or below that chance level only when its 95% "
@@ -134,6 +135,15 @@ def test_percent_drops_trailing_zeros():
     ]
 
 
+def test_percent_range_gives_both_ends_the_same_decimals():
+    from acder_lite.book_utils import percent_range
+
+    assert percent_range(0.0043, 0.01) == "0.43% to 1.00%"
+    assert percent_range(0.12, 0.3449) == "12% to 34%"
+    assert percent_range(0.0, 0.0093) == "0.00% to 0.93%"
+    assert percent_range(0.00038, 0.0093) == "0.038% to 0.930%"
+
+
 def test_solved_starts_sentence_compares_evaluation_by_evaluation():
     run = dict(
         seed=0,
@@ -145,3 +155,8 @@ def test_solved_starts_sentence_compares_evaluation_by_evaluation():
         "their targets, and it had 3 successes; the two counts are equal at 2 of its "
         "3 evaluations."
     )
+
+
+def test_vector_text_prints_no_negative_zero():
+    assert vector_text([1.3634, -0.0001, -0.1384]) == "[ 1.363  0.000 -0.138]"
+    assert vector_text([[-0.0, 0.26]], digits=1) == "[ 0.0  0.3]"

@@ -733,7 +733,7 @@ def check_page(
                 "xpath=//section[h2[contains(normalize-space(.), 'Table I')]]//table"
             )
             heads = table.first.locator("th").all_inner_texts() if table.count() else []
-            if not any("Mean curve" in h for h in heads):
+            if not any("mean curve" in h.lower() for h in heads):
                 problems.append(
                     "Table I is not an HTML <table> (no <table> with a 'Mean curve' "
                     "column in the 'Table I' section)"

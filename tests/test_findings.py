@@ -644,3 +644,24 @@ def test_separated_sentence_says_one_side_is_tested_at_100_percent():
         "crossings: a later crossing always lies outside the earlier one's interval, "
         "so only one side of the rule is tested."
     )
+
+
+def test_after_colon_lowers_an_ordinary_first_word_only():
+    """The book pastes some sentences after a colon of its own ('... as in the paper:
+    on Reach ...'): an ordinary first word goes lower case, a name stays."""
+    assert F.after_colon("On Reach DDPG+ACDER comes first.") == (
+        "on Reach DDPG+ACDER comes first."
+    )
+    assert F.after_colon("The mean curves cross.") == "the mean curves cross."
+    assert F.after_colon("A resample.") == "a resample."
+    for kept in (
+        "DDPG+HER first.",
+        "ACDER, S-ICM on raw.",
+        "Reach first.",
+        "Push.",
+        "",
+    ):
+        assert F.after_colon(kept) == kept
+    her, acder = curve_cell("her", [0.0, 0.5, 1.0, 1.0]), curve_cell("acder", [1.0] * 4)
+    said = F.after_colon(F.first_sentence([her, acder], tasks=(P,)))
+    assert said.startswith("on Push DDPG+ACDER comes first")

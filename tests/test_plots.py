@@ -107,3 +107,30 @@ def test_task_panels_name_the_methods_not_run_yet_inside_the_panel():
     assert [t.get_text() for t in reach.texts] == ["not run yet"]
     assert status["FetchPush-v4"]["acder-no-curiosity"] == "not run yet"
     plt.close(fig)
+
+
+def test_figures_fit_the_column_their_legend_under_the_axes():
+    """The package's figures are drawn at the book's column width, with text of at least
+    `FONT` points; a learning curve's legend lies under the x label, covering no data,
+    in one column when a label is too long for two."""
+    runs = [push_run(0, [0.5, 0.9, 1.0], "budget", budget=3.0)]
+    fig, _ = plots.task_panels(
+        runs, ("acder", "acder-no-curiosity"), tasks=("FetchPush-v4",)
+    )
+    assert fig.get_figwidth() == plots.WIDTH and fig.dpi == plots.DPI
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    legend = ax.get_legend()
+    box = legend.get_window_extent()
+    assert box.y1 < ax.xaxis.label.get_window_extent().y0  # under the x label
+    assert box.x0 >= 0 and box.x1 <= fig.bbox.x1  # within the figure's width
+    assert min(t.get_fontsize() for t in legend.get_texts()) >= plots.FONT
+    assert legend._ncols == 2
+    plt.close(fig)
+    fig = plots.plot_diagnostics([dict(episodes=4.0, r_int_mean=0.03)], eta=0.05)
+    assert fig.get_figwidth() == plots.WIDTH and fig.dpi == plots.DPI
+    plt.close(fig)
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], label="a label much too long for half of the figure's width")
+    assert plots.legend_below(ax)._ncols == 1
+    plt.close(fig)

@@ -693,3 +693,50 @@ def test_words_plural_and_count():
     ]  # fmt: skip
     assert count(2560, "row") == "2,560 rows" and count(1, "trial") == "1 trial"
     assert [count(n, "seed") for n in (0, 1, 3)] == ["0 seeds", "1 seed", "3 seeds"]
+
+
+def test_book_table_has_four_columns_and_the_rest_in_its_detail(results):
+    """The book's Table I fits its text column: task (once per task), method, ours
+    (crossing, then the interval on a line of its own) and the paper's; the other
+    columns of the full table are in the detail below it, so no fact is lost."""
+    cells = RE.summarize(RU.load_runs(results), n_boot=100)
+    header, rows = T.book_rows(cells)
+    assert header == T.BOOK_HEADER and all(len(r) == 4 for r in rows)
+    tasks = [r[0] for r in rows]
+    assert tasks[0] and tasks.count("Push") == 1  # each task named once
+    push = [c for c in cells if c.env == P]
+    first = rows[tasks.index("Push")]
+    assert first[1] == T.label(push[0].name) and first[3] == T.episodes(push[0].paper)
+    lines = first[2].split("\n")
+    assert lines[0] == T.mean_text(push[0])
+    span = T.interval_span(push[0]).replace(" – ", "\u00a0–\u00a0")
+    assert lines[1] in ("95%: " + span, "one seed: no interval")
+    d_header, detail = T.detail_rows(cells)
+    assert d_header[-1] == T.HEADER[5] and len(detail) == len(rows)
+    full = T.table_rows(cells)[1]
+    for d, f in zip(detail, full):  # seeds, share of resamples, per seed: as in full
+        assert d[2] == f[2] and d[4] == f[5] and d[3] in f[4] + "–"
+    html = T.book_html(cells, "Table I", "episodes")
+    assert html.count("<table>") == 2 and "<details><summary>Table I, per seed" in html
+    assert "<caption" in html and "<strong>Table I.</strong> Episodes" in html
+    assert "<br>95%: " in html or "one seed: no interval" in html
+
+
+def test_book_table_says_which_cells_still_train():
+    c = push_cell("her-per", 10.0, 9.0, 12.0)
+    c.boot, c.n, c.share_crossing, c.unfinished = [10.0], 3, 1.0, 2
+    assert T.interval_span(c) == "3,600 – 4,800"
+    assert T.ours_text(c) == (  # no line break inside the interval
+        "4,000\n95%: 3,600\u00a0–\u00a04,800\n2 of 3 seeds still training"
+    )
+
+
+def test_html_caption_and_line_breaks():
+    html = T.to_html(("a", "b"), [("x\ny", "`z`")], caption=("T", "what & why"))
+    assert html.startswith('<table><caption style="caption-side: top')
+    assert "<strong>T.</strong> What &amp; why</caption><thead>" in html
+    assert "<td>x<br>y</td><td><code>z</code></td>" in html
+    assert T.to_html(("a",), [("x",)]) == (
+        "<table><thead><tr><th>a</th></tr></thead><tbody><tr><td>x</td></tr>"
+        "</tbody></table>"
+    )

@@ -54,7 +54,7 @@ def test_summary_groups_cells_and_compares_the_two_kinds(tmp_path):
     assert her["episode_share"] == pytest.approx(0.075) and her["success"] == 0.75
     assert [r["curiosity_reward"] for r in rows] == [False, False, True]
     header, body = W.table_rows(rows)
-    assert len(header) == len(body[1]) and body[1][4] == "0.30% (0.20% - 0.40%)"
+    assert len(header) == len(body[1]) and body[1][4] == "0.30% (0.20% – 0.40%)"
     text = W.sentence(rows, "FetchPush-v4")
     # one cell's mean is one number, not a range from it to itself
     assert "at 3.00% of the test steps in the one cell whose reward" in text
@@ -90,7 +90,7 @@ def test_buffer_readings_in_a_sentence(tmp_path):
     (got,) = W.buffer_readings(tmp_path)  # the file without a wrap reading is left out
     assert W.buffer_sentence(got) == (
         "In the replay buffer of `results/FetchPush-v4/acder/seed2` (acder, 10,400 "
-        "episodes), 13.0% of 40,960 minibatch rows sit at Eq. 4's clip and 6.80% of "
+        "episodes), 13.00% of 40,960 minibatch rows sit at Eq. 4's clip and 6.80% of "
         "all rows are wraps; 52% of the rows at the clip are wraps, and 29 of the 40 "
         "start-state candidates the minibatches give are wraps."
     )
@@ -107,7 +107,7 @@ def test_buffer_readings_in_a_sentence(tmp_path):
     text = W.buffer_sentence(sincos)
     assert "(acder-no-start-states, S-ICM on (sin, cos), 10,400 episodes)" in text
     assert text.endswith(
-        " A block near gimbal lock (pitched within 11.5 degrees of +-90, on a side "
+        " A block near gimbal lock (pitched within 11.5° of ±90°, on a side "
         "face) is in 18% of the rows, 88% of those at the clip."
     )
     # no row at the clip, no candidate: null in the file, words in the sentence
