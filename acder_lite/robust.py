@@ -435,18 +435,17 @@ def _trained(run: dict) -> str:
     return f"{ep:g} {plural(ep, 'epoch')} ({count(n, 'episode')})"
 
 
-def training_clause(label: str, run: dict | None) -> str:
-    """How the run of a column of chapter 10 trained, in words: `run` is
-    `runs.read_run` of its folder (None: not trained yet). Its first crossing is where
-    its test-success curve over training episodes, read between evaluations
-    (`report.first_crossing`), first reaches its stop rule's threshold; then how it
-    ended (`runs.how_ended`) and, unless by the stop rule, its last test success."""
+def training_facts(run: dict) -> dict:
+    """How a run of chapter 10 trained (`run`: `runs.read_run` of its folder, with at
+    least one row), as phrases: `crossed`, where its test-success curve over training
+    episodes, read between evaluations (`report.first_crossing`), first reaches its
+    stop rule's threshold ('first reached 0.95 at 1,000 episodes'); `ended`, how it
+    ended (`runs.how_ended`) and, unless by the stop rule, its last test success
+    ('stopped once it had held 0.95 for 5 evaluations, after 7 epochs (2,800
+    episodes)')."""
     from .report import first_crossing, threshold
     from .runs import how_ended
 
-    name = label.replace(" ", "-")
-    if run is None or not run["rows"]:
-        return f"the {name} policy is not trained yet"
     rule = (run["done_info"] or {}).get("stop_rule") or {}
     cfg = run["config"]
     thr = float(
@@ -479,13 +478,27 @@ def training_clause(label: str, run: dict | None) -> str:
         tail = f"is still training ({trained} so far, at {last:.2f})"
     else:
         tail = f"ended before its budget after {trained}, at {last:.2f}"
-    return f"the {name} run's test success {crossed}, and the run {tail}"
+    return dict(crossed=crossed, ended=tail)
 
 
-def training_sentence(runs: dict[str, dict | None]) -> str:
-    """`training_clause` of each column of a task ({column label: run or None}),
-    joined."""
-    return "; ".join(training_clause(label, run) for label, run in runs.items())
+TRAINING_HEADER = ("Task", "Policy", "Test success", "The run")
+"""Columns of `training_rows`."""
+
+
+def training_rows(runs: dict[str, dict[str, dict | None]]) -> list[tuple]:
+    """Chapter 10's runs as table rows ({task: {column label: run or None}}), one per
+    policy (`training_facts`), the task named on its first row only; for
+    `table.to_html` with `TRAINING_HEADER`."""
+    rows = []
+    for env, cols in runs.items():
+        for k, (label, run) in enumerate(cols.items()):
+            task = task_label(env) if k == 0 else ""
+            if run is None or not run["rows"]:
+                rows.append((task, label, "–", "not trained yet"))
+                continue
+            f = training_facts(run)
+            rows.append((task, label, f["crossed"], f["ended"]))
+    return rows
 
 
 def lengths_sentence(env: str, runs: dict[str, dict | None]) -> str:

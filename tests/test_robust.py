@@ -27,8 +27,9 @@ from acder_lite.robust import (
     separation_sentence,
     side_by_side,
     told_apart,
-    training_clause,
-    training_sentence,
+    TRAINING_HEADER,
+    training_facts,
+    training_rows,
     weakest,
     wilson_interval,
     reading,
@@ -260,32 +261,31 @@ def _run(success, ended, stop_reason, epochs_per_row=1, per_epoch=400):
     )
 
 
-def test_training_clause_says_where_a_run_crossed_and_how_it_ended():
+def test_training_facts_say_where_a_run_crossed_and_how_it_ended():
     stopped = _run([0.5, 0.9, 1.0, 1.0, 1.0, 1.0, 1.0], "stop rule", "success held")
-    assert training_clause("full state", stopped) == (
-        "the full-state run's test success first reached 0.95 at 1,000 episodes, and "
-        "the run stopped once it had held 0.95 for 5 evaluations, after 7 epochs "
-        "(2,800 episodes)"
+    assert training_facts(stopped) == dict(
+        crossed="first reached 0.95 at 1,000 episodes",
+        ended="stopped once it had held 0.95 for 5 evaluations, after 7 epochs "
+        "(2,800 episodes)",
     )  # 0.9 at 800, 1.0 at 1,200: 0.95 read halfway between
     budget = _run([0.2, 0.97, 0.9, 0.89], "budget", "budget")
-    assert training_clause("simplified state", budget) == (
-        "the simplified-state run's test success first reached 0.95 at 790 episodes, "
-        "and the run never held 0.95 for 5 evaluations: it used its whole budget, 4 "
-        "epochs (1,600 episodes), and ended at 0.89"
+    assert training_facts(budget) == dict(
+        crossed="first reached 0.95 at 790 episodes",
+        ended="never held 0.95 for 5 evaluations: it used its whole budget, 4 "
+        "epochs (1,600 episodes), and ended at 0.89",
     )  # 400 + 400 * (0.95 - 0.2) / (0.97 - 0.2) = 789.6
     running = _run([0.1, 0.3], None, None)
-    assert training_clause("p", running) == (
-        "the p run's test success never reached 0.95, and the run is still training "
-        "(2 epochs (800 episodes) so far, at 0.30)"
-    )
-    assert training_clause("full state", None) == (
-        "the full-state policy is not trained yet"
+    assert training_facts(running) == dict(
+        crossed="never reached 0.95",
+        ended="is still training (2 epochs (800 episodes) so far, at 0.30)",
     )
     both = {"full state": stopped, "simplified state": None}
-    assert training_sentence(both) == (
-        training_clause("full state", stopped)
-        + "; the simplified-state policy is not trained yet"
-    )
+    rows = training_rows({"FetchPush-v4": both, "FetchReach-v4": {"a": running}})
+    assert len(TRAINING_HEADER) == 4 and rows == [
+        ("Push", "full state", *training_facts(stopped).values()),
+        ("", "simplified state", "–", "not trained yet"),
+        ("Reach", "a", "never reached 0.95", training_facts(running)["ended"]),
+    ]
     assert lengths_sentence("FetchPush-v4", both) == (
         "Not every Push column is trained: there are no lengths to compare."
     )
