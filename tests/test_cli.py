@@ -621,3 +621,12 @@ def test_resume_of_an_ended_run(cli, tmp_path):
     p = cli("train", "--resume", str(out), "--epochs", "3", "--quiet")
     assert p.returncode == 0 and f"done: {out} epochs=3 " in p.stdout, p.stderr
     assert json.loads((out / "done.json").read_text())["epochs"] == 3
+
+
+def test_threads_beyond_the_cpus_get_one_warning_line():
+    from acder_lite.cli import threads_warning, usable_cpus
+
+    assert usable_cpus() >= 1
+    assert threads_warning(2, cpus=2) is None and threads_warning(1, cpus=2) is None
+    line = threads_warning(64, cpus=2)
+    assert "\n" not in line and "threads=64" in line and "--threads 2" in line
