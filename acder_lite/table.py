@@ -148,7 +148,9 @@ def mean_text(c: CellStat) -> str:
     return text
 
 
-def interval_text(c: CellStat) -> str:
+def interval_span(c: CellStat) -> str:
+    """The 95% interval of the crossing in Table I's unit: '2,800 – 3,200',
+    '– (one seed)', '–' (no runs)."""
     if c.boot is None or c.low is None:
         return "–"
     if c.n == 1:
@@ -165,14 +167,16 @@ def interval_text(c: CellStat) -> str:
 
     low, high = bound(c.low), bound(c.high)
     # "not yet – not yet" says one thing twice: no resample has crossed yet
-    return f"{low if low == high else f'{low} – {high}'} ({c.share_crossing:.0%})"
+    return low if low == high else f"{low} – {high}"
 
 
-def interval_span(c: CellStat) -> str:
-    """The 95% interval alone, as `interval_text` writes it without the share of
-    resamples crossing: '2,800 – 3,200', '– (one seed)', '–'."""
-    text = interval_text(c)
-    return text.rsplit(" (", 1)[0] if text.endswith("%)") else text
+def interval_text(c: CellStat) -> str:
+    """`interval_span` with the share of bootstrap resamples that cross, where there
+    is an interval: '2,800 – 3,200 (100%)'."""
+    span = interval_span(c)
+    if c.boot is None or c.low is None or c.n == 1:
+        return span
+    return f"{span} ({c.share_crossing:.0%})"
 
 
 def per_seed_text(c: CellStat) -> str:
