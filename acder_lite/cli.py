@@ -149,26 +149,6 @@ def _command_line(argv: list[str] | None = None) -> list[str]:
     return ["python", "-m", "acder_lite"] + [shlex.quote(a) for a in argv]
 
 
-def usable_cpus() -> int:
-    """The CPUs this process may run on (its affinity mask where the OS has one)."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
-
-
-def threads_warning(threads: int, cpus: int | None = None) -> str | None:
-    """One line for a run asking for more threads than it has CPUs, else None. Trap:
-    torch and the env-stepping threads then take turns on the cores, and every
-    barrier of a matmul waits for a descheduled thread: slower than `cpus` threads."""
-    cpus = usable_cpus() if cpus is None else cpus
-    if threads <= cpus:
-        return None
-    return (
-        f"warning: threads={threads} is more than the {cpus} CPUs this process may "
-        f"use; the run will be slower than with --threads {cpus}"
-    )
-
-
 def cmd_train(args) -> int:
     from . import packed
     from .io import load_torch
@@ -277,7 +257,7 @@ def cmd_train(args) -> int:
             if made and not os.listdir(out):
                 os.rmdir(out)
             raise
-    from .precision import warning_if_slow
+    from .precision import threads_warning, warning_if_slow
 
     slow = warning_if_slow(trainer.cfg.update_dtype)
     for warning in (slow, threads_warning(trainer.cfg.threads)):

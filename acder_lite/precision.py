@@ -1,5 +1,6 @@
 """Which precision the gradient step runs in (`--update-dtype auto` decides from the
-CPU), and on which device (`--device auto`: CUDA where there is one).
+CPU), on which device (`--device auto`: CUDA where there is one), and how many CPUs
+a run or a sweep may use.
 
 bfloat16 helps only where the CPU multiplies bfloat16 natively (AVX512-BF16 or AMX):
 there the update step measured 2-3x faster. Without those instructions PyTorch emulates
@@ -10,6 +11,7 @@ works, with one warning line.
 
 from __future__ import annotations
 
+import os
 import time
 
 
@@ -111,3 +113,23 @@ def choose_device(requested: str) -> tuple[str, str]:
     if has_cuda:
         return "cuda", f"auto: CUDA is available ({torch.cuda.get_device_name(0)})"
     return "cpu", f"auto: no CUDA device (torch {torch.__version__})"
+
+
+def usable_cpus() -> int:
+    """The CPUs this process may run on (its affinity mask where the OS has one)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def threads_warning(threads: int, cpus: int | None = None) -> str | None:
+    """One line for a run asking for more threads than it has CPUs, else None. Trap:
+    torch and the env-stepping threads then take turns on the cores, and every
+    barrier of a matmul waits for a descheduled thread: slower than `cpus` threads."""
+    cpus = usable_cpus() if cpus is None else cpus
+    if threads <= cpus:
+        return None
+    return (
+        f"warning: threads={threads} is more than the {cpus} CPUs this process may "
+        f"use; the run will be slower than with --threads {cpus}"
+    )

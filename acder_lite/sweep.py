@@ -43,6 +43,7 @@ from pathlib import Path
 
 from . import cluster, grid_time, same_as
 from .config import Config, ConfigError
+from .precision import usable_cpus
 from .plan import (
     Cell,
     PlanError,
@@ -188,7 +189,7 @@ def check_args(args) -> str | None:
     if args.threads < 1:
         return f"--threads={args.threads} is not allowed: an integer >= 1"
     if args.jobs is None:
-        args.jobs = max(1, (os.cpu_count() or 1) // args.threads)
+        args.jobs = max(1, usable_cpus() // args.threads)
     if args.jobs < 1:
         return f"--jobs={args.jobs} is not allowed: an integer >= 1"
     try:

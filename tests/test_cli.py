@@ -624,7 +624,7 @@ def test_resume_of_an_ended_run(cli, tmp_path):
 
 
 def test_threads_beyond_the_cpus_get_one_warning_line():
-    from acder_lite.cli import threads_warning, usable_cpus
+    from acder_lite.precision import threads_warning, usable_cpus
 
     assert usable_cpus() >= 1
     assert threads_warning(2, cpus=2) is None and threads_warning(1, cpus=2) is None

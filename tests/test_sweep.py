@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from acder_lite import sweep as S
+from acder_lite.precision import usable_cpus
 from acder_lite.plan import PlanError, option_values, plan, read_plan
 from conftest import stop_tree
 
@@ -136,13 +137,24 @@ def test_dry_run(grid, capsys):
     ).exists()  # a dry run creates nothing
 
 
+def test_default_jobs_fill_the_usable_cpus(grid, monkeypatch):
+    # the affinity mask, not os.cpu_count(): a container limited to 6 of 64 CPUs runs
+    # 3 two-thread cells at once, not 32
+    monkeypatch.setattr(S, "usable_cpus", lambda: 6)
+    args = parse([*REACH_HER_0, str(grid), "--threads", "2"])
+    assert S.check_args(args) is None and args.jobs == 3
+    monkeypatch.setattr(S, "usable_cpus", lambda: 1)
+    args = parse([*REACH_HER_0, str(grid), "--threads", "2"])
+    assert S.check_args(args) is None and args.jobs == 1
+
+
 def test_train_argv(grid):
     args = parse(
         [*REACH_HER_0, str(grid), *"--epochs 3 --eval-every-cycles 5".split()]
         + ["--train-args=--cycles 2"]
     )
     assert S.check_args(args) is None
-    assert args.threads == 1 and args.jobs == max(1, os.cpu_count() or 1)
+    assert args.threads == 1 and args.jobs == usable_cpus()
     fresh, resume = plan(["FetchReach-v4"], ["her"], [2, 1], grid)
     argv = S.train_argv(fresh, args, resume=False)
     assert (
