@@ -21,7 +21,7 @@ import math
 import sys
 from pathlib import Path
 
-from .config import TASK_PRESETS, ConfigError
+from .config import TASK_PRESETS, Config, ConfigError
 from .report import (
     CUT_WHY,
     PAPER_EPISODES_PER_EPOCH,
@@ -80,6 +80,36 @@ def label(name: str) -> str:
 
 def task_label(env: str) -> str:
     return TASK_LABELS.get(env, env)
+
+
+PROTOCOL_HEADER = (
+    "Task",
+    "Epochs",
+    "Cycles an epoch",
+    "Episodes an epoch",
+    "Test episodes",
+    "Threshold",
+)
+
+
+def protocol_rows(envs=("FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4")):
+    """(header, rows): each task's training protocol as its preset resolves it (the
+    budget in epochs, an epoch's cycles and training episodes over all workers, the
+    test episodes of an evaluation, the success threshold Table I is read at)."""
+    rows = []
+    for env in envs:
+        c = Config(env=env).resolve()
+        rows.append(
+            (
+                task_label(env),
+                c.epochs,
+                c.cycles,
+                c.episodes_per_epoch,
+                f"{c.test_episodes} per worker",
+                f"{c.success_threshold:.0%}",
+            )
+        )
+    return PROTOCOL_HEADER, rows
 
 
 def episodes(x: float | None) -> str:

@@ -740,3 +740,18 @@ def test_html_caption_and_line_breaks():
         "<table><thead><tr><th>a</th></tr></thead><tbody><tr><td>x</td></tr>"
         "</tbody></table>"
     )
+
+
+def test_protocol_rows_follow_the_presets():
+    # protocol v2: Baselines' Reach epochs of 10 cycles, 20 test episodes per worker,
+    # the paper's budgets (25 / 50 / 100 epochs) and Table I's thresholds
+    from acder_lite.table import PROTOCOL_HEADER, protocol_rows
+
+    header, rows = protocol_rows()
+    assert header == PROTOCOL_HEADER and len(header) == len(rows[0])
+    assert rows == [
+        ("Reach", 25, 10, 80, "20 per worker", "100%"),
+        ("Push", 50, 50, 400, "20 per worker", "95%"),
+        ("Pick&Place", 100, 50, 400, "20 per worker", "95%"),
+    ]
+    assert protocol_rows(["FetchPush-v4"])[1] == rows[1:2]
