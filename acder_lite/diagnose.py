@@ -359,38 +359,62 @@ def novelty_contrast(
             "least one scripted set"
         )
 
-    def times(v) -> str:
-        lo, hi = f"{min(v):.2g}", f"{max(v):.2g}"
-        return f"{lo} times" if lo == hi else f"{lo} to {hi} times"
-
-    def each(parts: list[tuple[str, str]]) -> str:  # (text, input) pairs
-        said = [f"{parts[0][0]} the familiar one on {parts[0][1]} inputs"]
-        return " and ".join(said + [f"{t} on {i} ones" for t, i in parts[1:]])
-
     r = {i: np.asarray(m, np.float64) / m[0] for i, m in medians.items()}
-    over = [i for i, m in medians.items() if min(m[2:]) > max(m[:2])]
-    where = "the scripted excursions, which go where the buffer has never been,"
-    worse = "predicted worse than both the familiar transitions and fresh exploration"
-    if len(over) == len(r):
-        on = "on both inputs" if len(r) == 2 else "on all inputs"
-        lead, short = f"{on} {where} are {worse}", f"{on} the scripted excursions are"
-    else:
-        on = f"only on {' and '.join(over)} inputs" if over else "on no input"
-        lead, short = f"{on} are {where} {worse}", f"{on} are the scripted excursions"
-    scripted = (
-        f"{lead[0].upper()}{lead[1:]}: their median errors are "
-        + each([(times(v[2:]), i) for i, v in r.items()])
-        + "."
-    )
+    scripted, short = _scripted_sentence(medians, r)
     closer = all(v[1] < min(v[2:]) for v in r.values())
     how = "comes closer" if closer else "does not come closer"
     than = "any" if closer else "every"
     new = (
         f"Fresh exploration {how} to the familiar transitions than {than} scripted "
         "excursion: its median error is "
-        + each([(f"{v[1]:.2g} times", i) for i, v in r.items()])
+        + _on_each([(f"{v[1]:.2g} times", i) for i, v in r.items()])
         + "."
     )
+    tail = _clip_tail(at_clip)
+    summary = (
+        f"{short} {_WORSE}; fresh exploration's median error is "
+        f"{_times([v[1] for v in r.values()])} the familiar one; and at η = {eta:g}, "
+        f"{tail}"
+    )
+    return dict(scripted=scripted, new=new, tail=tail, summary=summary)
+
+
+_WORSE = "predicted worse than both the familiar transitions and fresh exploration"
+
+
+def _times(v) -> str:
+    """Ratios as "3.1 times" or "2.5 to 4 times"."""
+    lo, hi = f"{min(v):.2g}", f"{max(v):.2g}"
+    return f"{lo} times" if lo == hi else f"{lo} to {hi} times"
+
+
+def _on_each(parts: list[tuple[str, str]]) -> str:
+    """(text, input) pairs as "T1 the familiar one on raw inputs and T2 on ... ones"."""
+    said = [f"{parts[0][0]} the familiar one on {parts[0][1]} inputs"]
+    return " and ".join(said + [f"{t} on {i} ones" for t, i in parts[1:]])
+
+
+def _scripted_sentence(medians: dict, r: dict) -> tuple[str, str]:
+    """`novelty_contrast`'s `scripted` sentence, and its short form for the summary."""
+    over = [i for i, m in medians.items() if min(m[2:]) > max(m[:2])]
+    where = "the scripted excursions, which go where the buffer has never been,"
+    if len(over) == len(r):
+        on = "on both inputs" if len(r) == 2 else "on all inputs"
+        lead, short = f"{on} {where} are {_WORSE}", f"{on} the scripted excursions are"
+    else:
+        on = f"only on {' and '.join(over)} inputs" if over else "on no input"
+        lead, short = f"{on} are {where} {_WORSE}", f"{on} are the scripted excursions"
+    scripted = (
+        f"{lead[0].upper()}{lead[1:]}: their median errors are "
+        + _on_each([(_times(v[2:]), i) for i, v in r.items()])
+        + "."
+    )
+    return scripted, short
+
+
+def _clip_tail(at_clip: dict[str, tuple[float, float]]) -> str:
+    """`novelty_contrast`'s `tail`: per input, which of familiar and new transitions
+    reach the clip more often."""
     parts = []
     for i, (f, n) in at_clip.items():
         if f == n == 0:
@@ -409,13 +433,7 @@ def novelty_contrast(
                 f"({f:.2g})"
             )
     parts[0] = parts[0].replace("reach it", "reach the clip", 1)
-    tail = ", while ".join(parts)
-    summary = (
-        f"{short} {worse}; fresh exploration's median error is "
-        f"{times([v[1] for v in r.values()])} the familiar one; and at η = {eta:g}, "
-        f"{tail}"
-    )
-    return dict(scripted=scripted, new=new, tail=tail, summary=summary)
+    return ", while ".join(parts)
 
 
 def pool_positions(trainer, env=None) -> dict:
