@@ -565,6 +565,7 @@ def compare_stored(live: dict | None, stored: dict | None) -> dict:
 
     Returns dict(equal: no compared row differs and both sides have the same rows, one
     at least compared; whole: equal, nothing skipped and the same N; trials: n;
+    live_trials, stored_trials: each side's N (when both are there);
     matched, only_live, only_stored: lists of (knob, level); skipped: (knob, level,
     why); differing: dicts of knob, level, live and stored successes in the n trials,
     trials: those that differ (from 0; None when only counts were compared);
@@ -581,6 +582,7 @@ def compare_stored(live: dict | None, stored: dict | None) -> dict:
         )
         return dict(out, sentence=f"the benches cannot be compared ({diff})")
     n = out["trials"] = min(live["trials"], stored["trials"])
+    out.update(live_trials=live["trials"], stored_trials=stored["trials"])
     same_n = live["trials"] == stored["trials"]
     rows = [
         {(r["knob"], float(r["level"])): r for r in b["rows"]} for b in (live, stored)
@@ -624,11 +626,7 @@ def _comparison_sentence(c: dict, n_live: int, n_stored: int) -> str:
     if n_live != n_stored:
         each = f"the first {n} trials of each ({n_live} run here, {n_stored} stored)"
     if c["differing"]:
-        parts = [
-            f"`{d['knob']}` = {quantity(d['level'], KNOBS[d['knob']].unit)} "
-            f"({d['live']}/{n} here, {d['stored']}/{n} stored)"
-            for d in c["differing"]
-        ]
+        parts = _differing_parts(c)
         text = (
             f"the live bench differs from the stored one on {len(parts)} of "
             f"{count(compared, 'row')}, {each}: " + "; ".join(parts)
@@ -641,15 +639,58 @@ def _comparison_sentence(c: dict, n_live: int, n_stored: int) -> str:
         )
     else:
         text = "no row of the live bench can be compared with the stored one"
+    return text + _uncompared(c)
+
+
+def _differing_parts(c: dict) -> list[str]:
+    """Each differing row as "`mass` = 2 x (17/20 here, 18/20 stored)"."""
+    n = c["trials"]
+    return [
+        f"`{d['knob']}` = {quantity(d['level'], KNOBS[d['knob']].unit)} "
+        f"({d['live']}/{n} here, {d['stored']}/{n} stored)"
+        for d in c["differing"]
+    ]
+
+
+def _uncompared(c: dict) -> str:
+    """The rows left out of a comparison, as clauses after "; " ("" if none)."""
+    text = ""
     if c["skipped"]:
         text += (
-            f"; {count(len(c['skipped']), 'row')} cannot be compared at {n} trials, "
-            f"{_levels(c['skipped'])} ({c['skipped'][0][2]})"
+            f"; {count(len(c['skipped']), 'row')} cannot be compared at "
+            f"{c['trials']} trials, {_levels(c['skipped'])} ({c['skipped'][0][2]})"
         )
     for side, where in (("only_live", "here"), ("only_stored", "stored")):
         if c[side]:
             text += f"; only {where}: {_levels(c[side])}"
     return text
+
+
+STORED_HEADER = ("Task", "Rows compared", "Trials a row", "The live bench")
+"""`stored_rows`' columns."""
+
+
+def stored_rows(checks: dict[str, dict]) -> list[tuple]:
+    """The book's table of `compare_stored` results, a row a task (`checks`: env id ->
+    its result): how many rows were compared, on how many trials each, and whether
+    the live bench gave the stored outcomes (what was left out after a semicolon)."""
+    rows = []
+    for env, c in checks.items():
+        compared = len(c["matched"]) + len(c["differing"])
+        if not compared:  # why nothing was compared
+            rows.append((task_label(env), "–", "–", c["sentence"]))
+            continue
+        n, n_live, n_stored = c["trials"], c["live_trials"], c["stored_trials"]
+        trials = str(n)
+        if n_live != n_stored:
+            trials = f"the first {n} ({n_live} here, {n_stored} stored)"
+        outcome = "the same outcomes, trial for trial"
+        if c["differing"]:
+            outcome = f"differs on {len(c['differing'])}: " + "; ".join(
+                _differing_parts(c)
+            )
+        rows.append((task_label(env), compared, trials, outcome + _uncompared(c)))
+    return rows
 
 
 def _levels(keys: list[tuple]) -> str:

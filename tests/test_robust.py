@@ -617,6 +617,42 @@ def test_compare_stored_refuses_other_settings_and_reports_missing_rows():
     assert not compare_stored(stored, None)["equal"]
 
 
+def test_stored_rows_one_row_a_task():
+    from acder_lite.robust import STORED_HEADER, stored_rows
+
+    stored = _hand_bench(4, STORED)
+    flipped = dict(STORED)
+    flipped["mass", 2.0] = [1, 1, 1, 1]
+    short = {
+        ("obs_noise", 0.0): [1, 1],
+        ("obs_noise", 0.01): [0, 0],
+        ("mass", 2): [1, 0],
+    }
+    checks = {
+        "FetchReach-v4": compare_stored(_hand_bench(4, dict(STORED)), stored),
+        "FetchPush-v4": compare_stored(_hand_bench(4, flipped), stored),
+        "FetchPickAndPlace-v4": compare_stored(_hand_bench(2, short), stored),
+        "FetchSlide-v4": compare_stored(None, stored),
+    }
+    rows = stored_rows(checks)
+    assert all(len(r) == len(STORED_HEADER) for r in rows)
+    assert rows[0] == ("Reach", 3, "4", "the same outcomes, trial for trial")
+    assert rows[1] == (
+        "Push",
+        3,
+        "4",
+        "differs on 1: `mass` = 2 x (4/4 here, 3/4 stored)",
+    )
+    assert rows[2] == (
+        "Pick&Place",
+        2,
+        "the first 2 (2 here, 4 stored)",
+        "the same outcomes, trial for trial; 1 row cannot be compared at 2 trials, "
+        "`obs_noise` = 0.01 m (their noise draws depend on the trial count)",
+    )
+    assert rows[3][1:] == ("–", "–", "no bench run here to compare")
+
+
 @pytest.fixture(scope="module")
 def controller_policy(tmp_path_factory):
     """A policy.pt whose actor is `reach_controller`, saturated by its tanh: its
