@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from . import packed, same_as
-from .config import ENV_IDS, METHODS, Config, ConfigError
+from .config import ENV_IDS, METHODS, TASK_PRESETS, Config, ConfigError
 
 
 @dataclass
@@ -40,6 +40,12 @@ class Cell:
     @property
     def name(self) -> str:
         return "/".join(self.out.parts[-3:])
+
+    @property
+    def epochs(self) -> int:
+        """The epochs this cell trains for: its group's `epochs`, else its task's
+        preset (`TASK_PRESETS`), as `train` resolves them."""
+        return self.options.get("epochs", TASK_PRESETS[self.env]["epochs"])
 
 
 def run_dir(results: str | Path, env: str, method: str, seed: int) -> Path:

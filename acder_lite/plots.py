@@ -7,7 +7,8 @@ seed has a value, one standard deviation as the band, dotted where a seed stoppe
 stop rule is carried forward, and a dot where the mean first reaches the threshold.
 Missing runs come back in the returned status ("not run yet"), never as an error.
 `seed_ends` says where each seed's curve ends; `plot_diagnostics` draws ACDER's
-diagnostics of one run.
+diagnostics of one run; `chance_panel` draws a task's curves beside the test success
+no learning is needed for (chapter 9's chance level).
 
 The figures are drawn for the book's text column: `WIDTH` inches wide at `DPI`, text at
 least `FONT` points, and a legend of learning curves under its axes (`legend_below`),
@@ -338,6 +339,38 @@ def task_panels(
         )
     fig.tight_layout()
     return fig, statuses
+
+
+def chance_panel(
+    runs: list[dict],
+    names,
+    env: str,
+    chance: float,
+    why: str,
+    title: str = "",
+    labels: dict | None = None,
+):
+    """`task_panels`' panel of `env` with a chance level: `chance`, the test success no
+    learning is needed for (`why` says where it comes from), as a dotted line with a
+    note. Where the curves stay low the y axis is zoomed to them (to 1.8 times the
+    highest test success of `names`' runs, or of `chance`) and the note says the
+    threshold lies above; otherwise it keeps [0, 1]. Returns the figure."""
+    fig, _ = task_panels(runs, list(names), tasks=(env,), title=title, labels=labels)
+    ax = fig.axes[0]
+    rates = [
+        x["test_success"]
+        for r in runs
+        if r["env"] == env and r["name"] in names
+        for x in r["rows"]
+    ]
+    top, threshold = 1.8 * max(rates + [chance]), report.threshold(env)
+    note = f"dotted: chance, {chance:.2%} ({why})"
+    if 0 < top < threshold:  # the threshold is off the zoomed axis: say where it is
+        ax.set_ylim(0, top)
+        note += f"\ny axis zoomed: the {threshold:.0%} threshold is far above"
+    ax.axhline(chance, color="black", ls=":", lw=1)
+    ax.text(0.01, 0.96, note, transform=ax.transAxes, va="top", fontsize=FONT)
+    return fig
 
 
 def plot_seed_column(

@@ -134,3 +134,29 @@ def test_figures_fit_the_column_their_legend_under_the_axes():
     ax.plot([0, 1], label="a label much too long for half of the figure's width")
     assert plots.legend_below(ax)._ncols == 1
     plt.close(fig)
+
+
+def test_chance_panel_zooms_to_low_curves_and_draws_the_chance_line():
+    """Chapter 9's panel: a dotted line at chance, the y axis zoomed to the data (and a
+    note saying so) only while the curves stay far below the threshold."""
+    env = "FetchPushMultiStep-v0"
+
+    def run(name, values):
+        return dict(push_run(0, values, "budget", budget=3.0), env=env, name=name)
+
+    runs = [run("her", [0.0, 0.02, 0.01]), run("acder", [0.0, 0.0, 0.005])]
+    runs.append(run("her-icm", [0.6, 0.6, 0.6]))  # not drawn: not zoomed to
+    fig = plots.chance_panel(runs, ("her", "acder"), env, 0.0066, "why", "a title")
+    ax = fig.axes[0]
+    assert ax.get_ylim() == pytest.approx((0.0, 1.8 * 0.02))
+    dotted = [ln for ln in ax.get_lines() if ln.get_linestyle() == ":"]
+    assert [tuple(ln.get_ydata()) for ln in dotted] == [(0.0066, 0.0066)]
+    assert [t.get_text() for t in ax.texts] == [
+        "dotted: chance, 0.66% (why)\ny axis zoomed: the 95% threshold is far above"
+    ]
+    plt.close(fig)
+    fig = plots.chance_panel(runs, ("her", "her-icm"), env, 0.0066, "why")
+    ax = fig.axes[0]
+    assert ax.get_ylim() == pytest.approx((-0.05, 1.05))  # 1.08 would hide no threshold
+    assert [t.get_text() for t in ax.texts] == ["dotted: chance, 0.66% (why)"]
+    plt.close(fig)
