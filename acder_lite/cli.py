@@ -12,12 +12,15 @@ import dataclasses
 import os
 import sys
 
-from .config import Config, ConfigError, field_docs
+from .config import ENV_IDS, METHODS, Config, ConfigError, field_docs
 from .io import CheckpointError, checkpoint_config
 from .words import plural
 
 # Config fields that are not command-line options.
 _NOT_OPTIONS = {"switches", "update_dtype_why", "device_why"}
+# Fields whose values are the keys of a table: --help lists them from the table, so a
+# method or task added there shows up here with no docstring to edit.
+_CHOICES = {"env": ENV_IDS, "method": METHODS}
 # Fields a resumed run may change (everything else is fixed by the checkpoint).
 _RESUMABLE = {
     "epochs",
@@ -111,6 +114,8 @@ def add_config_options(p: argparse.ArgumentParser) -> None:
         if f.name in _NOT_OPTIONS:
             continue
         doc = docs.get(f.name, "").replace("%", "%%")
+        if f.name in _CHOICES:
+            doc += f" One of: {', '.join(_CHOICES[f.name])}."
         default = f.default if f.default is not dataclasses.MISSING else None
         if f.type in (bool, "bool"):  # a flag: given is True, absent is the default
             p.add_argument(

@@ -185,11 +185,11 @@ class ConfigError(ValueError):
 class Config:
     # --- what to run
     env: str = "FetchReach-v4"
-    """Gymnasium id of the task; one of `ENV_IDS`."""
+    """Gymnasium id of the task, one of `ENV_IDS` (`train --help` lists them)."""
     method: str = "her"
-    """A row of the method table (`METHODS`): ddpg, her, her-icm, her-per, her-ebp,
-    acder and its ablations (protocol v1's acder-baselines-clip is acder with today's
-    default target clip)."""
+    """A row of the method table (`METHODS`, which `train --help` lists): DDPG, the
+    paper's baselines, ACDER and its ablations (protocol v1's acder-baselines-clip is
+    acder with today's default target clip)."""
     seed: int = 0
     """Seeds numpy, torch and every env
     (worker i gets `seed*1000+i`, test envs `seed*1000+500+i`: `envs.run_env_seeds`)."""

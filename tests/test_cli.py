@@ -630,3 +630,18 @@ def test_threads_beyond_the_cpus_get_one_warning_line():
     assert threads_warning(2, cpus=2) is None and threads_warning(1, cpus=2) is None
     line = threads_warning(64, cpus=2)
     assert "\n" not in line and "threads=64" in line and "--threads 2" in line
+
+
+def test_train_help_lists_every_method_and_task_from_their_tables(capsys):
+    # from config.METHODS and config.ENV_IDS, so an added method or task shows up in
+    # --help without a docstring to edit
+    from acder_lite.cli import build_parser
+    from acder_lite.config import ENV_IDS, METHODS
+
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["train", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    method = text[text.index("--method METHOD") :].split("(default: her)")[0]
+    assert "One of: " + ", ".join(METHODS) in method.replace("- ", "-")
+    env = text[text.index("--env ENV") :].split("(default: FetchReach-v4)")[0]
+    assert "One of: " + ", ".join(ENV_IDS) in env
