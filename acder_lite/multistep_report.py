@@ -20,6 +20,7 @@ from pathlib import Path
 from .book_utils import percent, percent_range
 from .config import TASK_PRESETS
 from .multistep import ENV_ID
+from .trial_stats import wilson_interval
 
 METHODS = {"her": "DDPG+HER", "acder": "DDPG+ACDER"}
 """The methods chapter 9 runs on the task, by run folder name, with their labels, in the
@@ -224,10 +225,8 @@ def best_sentence(progress: dict[str, list[dict]], threshold: float) -> str:
 
 def versus_chance(k: int, n: int, chance: float, z: float = 1.96) -> str:
     """'above', 'below' or 'at': where k successes in n trials stand against a chance
-    rate, by the Wilson interval of k/n (z = 1.96: 95%; `robust.wilson_interval`):
+    rate, by the Wilson interval of k/n (z = 1.96: 95%; `trial_stats.wilson_interval`):
     above when the whole interval lies above `chance`, below when it lies below."""
-    from .robust import wilson_interval
-
     lo, hi = wilson_interval(k, n, z)
     return "above" if lo > chance else "below" if hi < chance else "at"
 
@@ -238,8 +237,6 @@ def chance_sentence(progress: dict[str, list[dict]], solved: int, resets: int) -
     that start solved (`solved` of them). A rate is called above (below) chance only
     when its 95% Wilson interval lies wholly above (below) that share
     (`versus_chance`). "" when there is no run."""
-    from .robust import wilson_interval
-
     chance = solved / resets
     counts = {
         lab: (sum(s["test_successes"] for s in seeds), sum(s["tests"] for s in seeds))

@@ -23,7 +23,7 @@ the same standard-normal draws. Levels differ only by their perturbation, and th
 command gives the same table. Trial i's env does not depend on the trial count, so a
 bench of fewer trials replays a longer one's first trials, except at a noise level above
 0: the noise is drawn for all trials at once, laid out by their count (`Knob.drawn`).
-`compare_stored` checks a bench against one stored with `--json`.
+`stored_bench.compare_stored` checks a bench against one stored with `--json`.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ import os
 import numpy as np
 
 from . import envs as E
-from .config import ENV_IDS, OBJECT_ENVS, OBS_SETS, Config, ConfigError
+from .config import ENV_IDS, OBJECT_ENVS, OBS_SETS, ConfigError
 from .io import (
     CheckpointError,
     check_output,
@@ -59,7 +59,8 @@ from .perturb import (
 )
 from .rollout import Policy, run_episodes
 from .table import task_label
-from .words import and_join, count, plural
+from .trial_stats import separating_gap, told_apart
+from .words import and_join, count
 
 NOISE_STREAM = 0xACDE
 """First word of the noise generator's seed, [NOISE_STREAM, seed]: trial 0's env is
@@ -242,49 +243,6 @@ def to_text(result: dict) -> str:
     return "\n".join(lines)
 
 
-def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """Wilson's score interval for a success rate of k in n trials (z = 1.96: 95%);
-    unlike the normal approximation it stays inside [0, 1] at k = 0 or k = n."""
-    p = k / n
-    mid = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    return mid - half, mid + half
-
-
-def told_apart(a: tuple[int, int], b: tuple[int, int], z: float = 1.96) -> bool:
-    """Whether two counts (successes, trials) are told apart: their Wilson intervals
-    (`wilson_interval`, z = 1.96: 95%) do not overlap."""
-    (lo_a, hi_a), (lo_b, hi_b) = wilson_interval(*a, z), wilson_interval(*b, z)
-    return hi_a < lo_b or hi_b < lo_a
-
-
-def separating_gap(n: int, z: float = 1.96) -> dict | None:
-    """How many trials apart two counts out of `n` must be to be told apart
-    (`told_apart`): for each count k the least d with k and k + d apart; `least` and
-    `most` of these over k, each with a pair (k, k + d) that needs it (`least`'s the
-    lowest such k, `most`'s the one nearest the middle of the range). None when no two
-    counts of n are apart (n <= 3 at 95%)."""
-    need = {}
-    for k in range(n + 1):
-        d = next(
-            (d for d in range(1, n - k + 1) if told_apart((k, n), (k + d, n), z)), None
-        )
-        if d is not None:
-            need[k] = d
-    if not need:
-        return None
-    least, most = min(need.values()), max(need.values())
-    at_most = [k for k, d in need.items() if d == most]
-    k_most = min(at_most, key=lambda k: abs(2 * k + most - n))  # nearest the centre
-    k_least = min(k for k, d in need.items() if d == least)
-    return dict(
-        least=least,
-        most=most,
-        least_pair=(k_least, k_least + least),
-        most_pair=(k_most, k_most + most),
-    )
-
-
 def separated_rows(bench: dict[tuple[str, str], dict], z: float = 1.96) -> list[dict]:
     """The rows (task, knob, level) where two columns of a task are told apart
     (`told_apart`): `bench` maps (task, column label) to a `run_bench` result, as
@@ -392,134 +350,6 @@ def reading(label: str, result: dict | None) -> str:
     return head + f" and in {low['successes']} at its weakest, " + and_join(levels)
 
 
-STAND_IN = "experiments/protocol-v1/"
-"""Where chapter 10's full-state column finds a policy while the grid's own run
-(results/<task>/acder/seed0) has not finished: the protocol-v1 run of the same method
-and seed."""
-
-
-def full_state_sentence(folders: dict[str, str | None]) -> str:
-    """Where each task's full-state policy comes from, in words (chapter 10): `folders`
-    maps a task to the folder `runs.finished_run` chose, relative to the repo, or None
-    (none finished). A folder under `STAND_IN` stands in for the grid's own run."""
-    by: dict[str, list[str]] = {"grid": [], "stand-in": [], "none": []}
-    for env, folder in folders.items():
-        if folder is None:
-            key = "none"
-        else:
-            key = "stand-in" if folder.startswith(STAND_IN) else "grid"
-        by[key].append(task_label(env))
-    if not by["stand-in"] and not by["none"]:
-        return "Every task's full-state policy is the grid's own run."
-    parts = []
-    if by["grid"]:
-        parts.append(
-            f"on {and_join(by['grid'])} the full-state policy is the grid's run"
-        )
-    if by["stand-in"]:
-        parts.append(
-            f"on {and_join(by['stand-in'])} the grid's run has not finished, and the "
-            "protocol-v1 run of the same method and seed stands in for it (chapter 8 "
-            "says what differs)"
-        )
-    if by["none"]:
-        parts.append(f"on {and_join(by['none'])} no full-state policy has finished")
-    text = "; ".join(parts)
-    return text[:1].upper() + text[1:] + "."
-
-
-def _trained(run: dict) -> str:
-    """'19 epochs (7,600 episodes)': how far a run of `runs.read_run` got."""
-    last = run["rows"][-1]
-    ep, n = last["epoch"], int(last["episodes"])
-    return f"{ep:g} {plural(ep, 'epoch')} ({count(n, 'episode')})"
-
-
-def training_facts(run: dict) -> dict:
-    """How a run of chapter 10 trained (`run`: `runs.read_run` of its folder, with at
-    least one row), as phrases: `crossed`, where its test-success curve over training
-    episodes, read between evaluations (`report.first_crossing`), first reaches its
-    stop rule's threshold ('first reached 0.95 at 1,000 episodes'); `ended`, how it
-    ended (`runs.how_ended`) and, unless by the stop rule, its last test success
-    ('stopped once it had held 0.95 for 5 evaluations, after 7 epochs (2,800
-    episodes)')."""
-    from .report import first_crossing, threshold
-    from .runs import how_ended
-
-    rule = (run["done_info"] or {}).get("stop_rule") or {}
-    cfg = run["config"]
-    thr = float(
-        rule.get("success_threshold")
-        or cfg.get("success_threshold")
-        or threshold(run["env"])
-    )
-    patience = rule.get("patience", cfg.get("stop_patience"))
-    if patience is None:
-        patience = Config().stop_patience
-    x = [r["episodes"] for r in run["rows"]]
-    y = [r["test_success"] for r in run["rows"]]
-    hit = first_crossing(x, y, thr)
-    crossed = (
-        f"first reached {thr:.2f} at {hit:,.0f} episodes"
-        if hit is not None
-        else f"never reached {thr:.2f}"
-    )
-    trained, last = _trained(run), run["rows"][-1]["test_success"]
-    held = f"held {thr:.2f} for {count(patience, 'evaluation')}"
-    ended = how_ended(run)
-    if ended == "early stop":
-        tail = f"stopped once it had {held}, after {trained}"
-    elif ended == "full budget":
-        tail = (
-            f"never {held}: it used its whole budget, {trained}, and ended at "
-            f"{last:.2f}"
-        )
-    elif ended is None:
-        tail = f"is still training ({trained} so far, at {last:.2f})"
-    else:
-        tail = f"ended before its budget after {trained}, at {last:.2f}"
-    return dict(crossed=crossed, ended=tail)
-
-
-TRAINING_HEADER = ("Task", "Policy", "Test success", "The run")
-"""Columns of `training_rows`."""
-
-
-def training_rows(runs: dict[str, dict[str, dict | None]]) -> list[tuple]:
-    """Chapter 10's runs as table rows ({task: {column label: run or None}}), one per
-    policy (`training_facts`), the task named on its first row only; for
-    `table.to_html` with `TRAINING_HEADER`."""
-    rows = []
-    for env, cols in runs.items():
-        for k, (label, run) in enumerate(cols.items()):
-            task = task_label(env) if k == 0 else ""
-            if run is None or not run["rows"]:
-                rows.append((task, label, "–", "not trained yet"))
-                continue
-            f = training_facts(run)
-            rows.append((task, label, f["crossed"], f["ended"]))
-    return rows
-
-
-def lengths_sentence(env: str, runs: dict[str, dict | None]) -> str:
-    """Whether a task's columns ({column label: `runs.read_run` or None}) trained
-    for as many episodes, in one sentence."""
-    task = task_label(env)
-    if any(r is None or not r["rows"] for r in runs.values()):
-        return f"Not every {task} column is trained: there are no lengths to compare."
-    episodes = {r["rows"][-1]["episodes"] for r in runs.values()}
-    if len(episodes) == 1:
-        one = _trained(next(iter(runs.values())))
-        return f"The {task} policies trained as long, {one} each."
-    each = ", ".join(
-        f"the {label.replace(' ', '-')} one {_trained(r)}" for label, r in runs.items()
-    )
-    return (
-        f"The {task} policies did not train as long: {each}, so a difference between "
-        "their columns is one of training as well as of state."
-    )
-
-
 def side_by_side(results: dict[str, dict]) -> str:
     """A Markdown table of several benches: a row per (knob, level) in the order the
     benches met them, a column per bench (`results`: {column label: `run_bench`
@@ -546,165 +376,6 @@ def side_by_side(results: dict[str, dict]) -> str:
             + " |"
         )
     return "\n".join(lines)
-
-
-SETTINGS = ("env", "obs", "seed", "tolerance", "horizon")
-"""What two benches must share for their rows to be compared."""
-
-
-def compare_stored(live: dict | None, stored: dict | None) -> dict:
-    """Check a bench run here (`live`, a `run_bench` result) against one stored by
-    `robust --json` (`stored`, the file's dict): the same policy, seed and simulator
-    should give the same outcomes, trial for trial.
-
-    Trial i starts from the env seeded `seed + i` whatever the trial count, so the first
-    n = min(N_live, N_stored) trials of each row are compared, by their `trial_success`
-    (by the counts if a side lacks it, and then only at equal N). At unequal N a row at
-    a noise level above 0 is skipped: its draws are laid out by the trial count. Rows
-    are matched by (knob, level).
-
-    Returns dict(equal: no compared row differs and both sides have the same rows, one
-    at least compared; whole: equal, nothing skipped and the same N; trials: n;
-    live_trials, stored_trials: each side's N (when both are there);
-    matched, only_live, only_stored: lists of (knob, level); skipped: (knob, level,
-    why); differing: dicts of knob, level, live and stored successes in the n trials,
-    trials: those that differ (from 0; None when only counts were compared);
-    sentence: one line saying it)."""
-    out = dict(equal=False, whole=False, trials=0, matched=[], differing=[])
-    out.update(skipped=[], only_live=[], only_stored=[])
-    if live is None or stored is None:
-        what = "no bench run here" if live is None else "no stored bench"
-        return dict(out, sentence=f"{what} to compare")
-    other = [k for k in SETTINGS if live.get(k) != stored.get(k)]
-    if other:
-        diff = "; ".join(
-            f"{k} {live.get(k)} here, {stored.get(k)} stored" for k in other
-        )
-        return dict(out, sentence=f"the benches cannot be compared ({diff})")
-    n = out["trials"] = min(live["trials"], stored["trials"])
-    out.update(live_trials=live["trials"], stored_trials=stored["trials"])
-    same_n = live["trials"] == stored["trials"]
-    rows = [
-        {(r["knob"], float(r["level"])): r for r in b["rows"]} for b in (live, stored)
-    ]
-    out["only_stored"] = [k for k in rows[1] if k not in rows[0]]
-    for key, a in rows[0].items():
-        b = rows[1].get(key)
-        per_trial = b is not None and "trial_success" in a and "trial_success" in b
-        if b is None:
-            out["only_live"].append(key)
-        elif not (same_n or per_trial):
-            out["skipped"].append((*key, "a side keeps no per-trial outcomes"))
-        elif not same_n and KNOBS[key[0]].drawn and key[1] != 0:
-            out["skipped"].append((*key, "their noise draws depend on the trial count"))
-        elif per_trial:
-            x, y = a["trial_success"][:n], b["trial_success"][:n]
-            bad = [i for i in range(n) if x[i] != y[i]]
-            _tally(out, key, bad, sum(x), sum(y))
-        else:  # the counts of the same N trials
-            k, m = a["successes"], b["successes"]
-            _tally(out, key, [] if k == m else None, k, m)
-    one_sided = out["only_live"] or out["only_stored"]
-    out["equal"] = bool(out["matched"]) and not (out["differing"] or one_sided)
-    out["whole"] = out["equal"] and same_n and not out["skipped"]
-    sentence = _comparison_sentence(out, live["trials"], stored["trials"])
-    return dict(out, sentence=sentence)
-
-
-def _tally(out: dict, key: tuple, bad: list | None, live: int, stored: int) -> None:
-    if bad == []:
-        out["matched"].append(key)
-    else:
-        row = dict(knob=key[0], level=key[1], live=live, stored=stored, trials=bad)
-        out["differing"].append(row)
-
-
-def _comparison_sentence(c: dict, n_live: int, n_stored: int) -> str:
-    """`compare_stored`'s one line."""
-    n, compared = c["trials"], len(c["matched"]) + len(c["differing"])
-    each = f"all {n} trials of each"
-    if n_live != n_stored:
-        each = f"the first {n} trials of each ({n_live} run here, {n_stored} stored)"
-    if c["differing"]:
-        parts = _differing_parts(c)
-        text = (
-            f"the live bench differs from the stored one on {len(parts)} of "
-            f"{count(compared, 'row')}, {each}: " + "; ".join(parts)
-        )
-    elif compared:
-        every = "" if c["skipped"] else "all "
-        text = (
-            f"the live bench equals the stored one trial for trial on {every}"
-            f"{count(compared, 'row')}, {each}"
-        )
-    else:
-        text = "no row of the live bench can be compared with the stored one"
-    return text + _uncompared(c)
-
-
-def _differing_parts(c: dict) -> list[str]:
-    """Each differing row as "`mass` = 2 x (17/20 here, 18/20 stored)"."""
-    n = c["trials"]
-    return [
-        f"`{d['knob']}` = {quantity(d['level'], KNOBS[d['knob']].unit)} "
-        f"({d['live']}/{n} here, {d['stored']}/{n} stored)"
-        for d in c["differing"]
-    ]
-
-
-def _uncompared(c: dict) -> str:
-    """The rows left out of a comparison, as clauses after "; " ("" if none)."""
-    text = ""
-    if c["skipped"]:
-        text += (
-            f"; {count(len(c['skipped']), 'row')} cannot be compared at "
-            f"{c['trials']} trials, {_levels(c['skipped'])} ({c['skipped'][0][2]})"
-        )
-    for side, where in (("only_live", "here"), ("only_stored", "stored")):
-        if c[side]:
-            text += f"; only {where}: {_levels(c[side])}"
-    return text
-
-
-STORED_HEADER = ("Task", "Rows compared", "Trials a row", "The live bench")
-"""`stored_rows`' columns."""
-
-
-def stored_rows(checks: dict[str, dict]) -> list[tuple]:
-    """The book's table of `compare_stored` results, a row a task (`checks`: env id ->
-    its result): how many rows were compared, on how many trials each, and whether
-    the live bench gave the stored outcomes (what was left out after a semicolon)."""
-    rows = []
-    for env, c in checks.items():
-        compared = len(c["matched"]) + len(c["differing"])
-        if not compared:  # why nothing was compared
-            rows.append((task_label(env), "–", "–", c["sentence"]))
-            continue
-        n, n_live, n_stored = c["trials"], c["live_trials"], c["stored_trials"]
-        trials = str(n)
-        if n_live != n_stored:
-            trials = f"the first {n} ({n_live} here, {n_stored} stored)"
-        outcome = "the same outcomes, trial for trial"
-        if c["differing"]:
-            outcome = f"differs on {len(c['differing'])}: " + "; ".join(
-                _differing_parts(c)
-            )
-        rows.append((task_label(env), compared, trials, outcome + _uncompared(c)))
-    return rows
-
-
-def _levels(keys: list[tuple]) -> str:
-    """(knob, level, ...) rows as "`obs_noise` = 0.005, 0.01 m and `mass` = 2 x"."""
-    by_knob: dict[str, list] = {}
-    for k, v, *_ in keys:
-        by_knob.setdefault(k, []).append(v)
-    return and_join(
-        [
-            f"`{k}` = {', '.join(f'{v:g}' for v in vs)} "
-            f"{unit_of(vs[-1], KNOBS[k].unit)}"
-            for k, vs in by_knob.items()
-        ]
-    )
 
 
 # ----- the command

@@ -1,6 +1,8 @@
 """The robustness bench: a perfect scripted policy scores N/N, the camera knobs perturb
 only what they name, the same seed gives the same table (and the table the command
-stored), bad input. The knobs themselves: test_perturb.py."""
+stored), bad input. The knobs themselves: test_perturb.py; the counts' statistics:
+test_trial_stats.py; a bench against a stored one: test_stored_bench.py; chapter
+10's reading of its runs: test_deploy_report.py."""
 
 import csv
 import json
@@ -13,27 +15,18 @@ from acder_lite import envs as E
 from acder_lite.config import ConfigError
 from acder_lite.perturb import KNOBS, nominal, parse_perturb
 from acder_lite.robust import (
-    STAND_IN,
     Bench,
-    compare_stored,
-    full_state_sentence,
     load_policy,
     perturbed_policy,
     policy_act,
     run_bench,
-    lengths_sentence,
     separated_rows,
-    separating_gap,
     separation_sentence,
     side_by_side,
-    told_apart,
-    TRAINING_HEADER,
-    training_facts,
-    training_rows,
     weakest,
-    wilson_interval,
     reading,
 )
+from acder_lite.stored_bench import compare_stored
 
 from test_cli import one_line_error
 
@@ -131,52 +124,6 @@ def test_side_by_side_puts_benches_in_columns():
     )
 
 
-def test_full_state_sentence_names_the_stand_ins():
-    """Chapter 10's full-state column: the grid's run, the protocol-v1 stand-in while
-    the grid's has not finished, or none."""
-    R, P, PP = "FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4"
-    grid = {e: f"results/{e}/acder/seed0" for e in (R, P, PP)}
-    assert full_state_sentence(grid) == (
-        "Every task's full-state policy is the grid's own run."
-    )
-    mixed = dict(grid, **{P: f"{STAND_IN}{P}/acder/seed0", PP: None})
-    assert full_state_sentence(mixed) == (
-        "On Reach the full-state policy is the grid's run; on Push the grid's run has "
-        "not finished, and the protocol-v1 run of the same method and seed stands in "
-        "for it (chapter 8 says what differs); on Pick&Place no full-state policy has "
-        "finished."
-    )
-
-
-def test_wilson_interval_hand_worked():
-    # 16 of 20: p = 0.8, z = 1.96: centre (0.8 + 0.09604) / 1.19208 = 0.75166, half
-    # 1.96 / 1.19208 * sqrt(0.008 + 0.0024010) = 0.16768
-    lo, hi = wilson_interval(16, 20)
-    assert lo == pytest.approx(0.58398, abs=1e-4) and hi == pytest.approx(
-        0.91934, abs=1e-4
-    )
-    lo, hi = wilson_interval(20, 20)
-    assert hi == pytest.approx(1.0) and 0.8 < lo < 0.85
-
-
-def test_told_apart_and_the_gap_it_takes_at_20_trials():
-    # chapter 10's bench: gaps of 4 or 5 trials overlap, 7 against 17 does not
-    assert not told_apart((4, 20), (9, 20)) and not told_apart((15, 20), (20, 20))
-    assert told_apart((7, 20), (17, 20)) and told_apart((17, 20), (7, 20))
-    gap = separating_gap(20)
-    assert (gap["least"], gap["most"]) == (7, 9)
-    assert gap["least_pair"] == (0, 7) and gap["most_pair"] == (5, 14)
-    # each the least gap at its k: one trial fewer overlaps
-    assert told_apart((0, 20), (7, 20)) and not told_apart((0, 20), (6, 20))
-    assert told_apart((5, 20), (14, 20)) and not told_apart((5, 20), (13, 20))
-    assert all(  # and no k needs more than 9
-        told_apart((k, 20), (k + 9, 20)) for k in range(12)
-    )
-    assert separating_gap(3) is None  # 0 of 3 and 3 of 3 overlap at 95%
-    four = separating_gap(4)
-    assert (four["least"], four["most"], four["least_pair"]) == (4, 4, (0, 4))
-
-
 def _bench(*rows):
     """A hand-made `run_bench` result: rows (knob, level, successes) of 20 trials."""
     return dict(
@@ -234,71 +181,6 @@ def test_separated_rows_lists_the_rows_whose_columns_are_told_apart():
         "the range (0 against 4 of 4);"
     )
     assert "no two counts are told apart" in separation_sentence(2, [])
-
-
-def _run(success, ended, stop_reason, epochs_per_row=1, per_epoch=400):
-    """A hand-made `runs.read_run` result of FetchPush (threshold 0.95, patience 5)."""
-    rows = [
-        dict(
-            epoch=(i + 1) * epochs_per_row, episodes=(i + 1) * per_epoch, test_success=s
-        )
-        for i, s in enumerate(success)
-    ]
-    done = (
-        None
-        if ended is None
-        else dict(
-            stop_reason=stop_reason,
-            stop_rule=dict(success_threshold=0.95, patience=5),
-        )
-    )
-    return dict(
-        env="FetchPush-v4",
-        rows=rows,
-        config=dict(success_threshold=0.95, stop_patience=5),
-        done_info=done,
-        ended=ended,
-    )
-
-
-def test_training_facts_say_where_a_run_crossed_and_how_it_ended():
-    stopped = _run([0.5, 0.9, 1.0, 1.0, 1.0, 1.0, 1.0], "stop rule", "success held")
-    assert training_facts(stopped) == dict(
-        crossed="first reached 0.95 at 1,000 episodes",
-        ended="stopped once it had held 0.95 for 5 evaluations, after 7 epochs "
-        "(2,800 episodes)",
-    )  # 0.9 at 800, 1.0 at 1,200: 0.95 read halfway between
-    budget = _run([0.2, 0.97, 0.9, 0.89], "budget", "budget")
-    assert training_facts(budget) == dict(
-        crossed="first reached 0.95 at 790 episodes",
-        ended="never held 0.95 for 5 evaluations: it used its whole budget, 4 "
-        "epochs (1,600 episodes), and ended at 0.89",
-    )  # 400 + 400 * (0.95 - 0.2) / (0.97 - 0.2) = 789.6
-    running = _run([0.1, 0.3], None, None)
-    assert training_facts(running) == dict(
-        crossed="never reached 0.95",
-        ended="is still training (2 epochs (800 episodes) so far, at 0.30)",
-    )
-    both = {"full state": stopped, "simplified state": None}
-    rows = training_rows({"FetchPush-v4": both, "FetchReach-v4": {"a": running}})
-    assert len(TRAINING_HEADER) == 4 and rows == [
-        ("Push", "full state", *training_facts(stopped).values()),
-        ("", "simplified state", "–", "not trained yet"),
-        ("Reach", "a", "never reached 0.95", training_facts(running)["ended"]),
-    ]
-    assert lengths_sentence("FetchPush-v4", both) == (
-        "Not every Push column is trained: there are no lengths to compare."
-    )
-    assert lengths_sentence(
-        "FetchPush-v4", {"full state": stopped, "simplified state": budget}
-    ) == (
-        "The Push policies did not train as long: the full-state one 7 epochs (2,800 "
-        "episodes), the simplified-state one 4 epochs (1,600 episodes), so a "
-        "difference between their columns is one of training as well as of state."
-    )
-    assert lengths_sentence("FetchPush-v4", {"a": budget, "b": budget}) == (
-        "The Push policies trained as long, 4 epochs (1,600 episodes) each."
-    )
 
 
 def test_determinism_for_a_seed_and_common_trials():
@@ -527,130 +409,6 @@ def test_perturb_help_says_which_knobs_need_a_block(cli):
 
 
 # ----- a bench against a stored one
-
-
-def _hand_bench(trials: int, rows: dict, **settings) -> dict:
-    """A bench result as run_bench or `robust --json` gives it, made by hand: rows
-    {(knob, level): per-trial outcomes}."""
-    base = dict(env="FetchPush-v4", obs="simplified", seed=12345, tolerance=0.05)
-    return dict(
-        base,
-        horizon=50,
-        trials=trials,
-        **settings,
-        rows=[
-            dict(knob=k, level=v, successes=sum(t), trials=trials, trial_success=t)
-            for (k, v), t in rows.items()
-        ],
-    )
-
-
-STORED = {
-    ("obs_noise", 0.0): [1, 1, 0, 1],
-    ("obs_noise", 0.01): [1, 0, 0, 1],
-    ("mass", 2.0): [1, 0, 1, 1],
-}
-
-
-def test_compare_stored_finds_a_differing_trial():
-    stored = _hand_bench(4, STORED)
-    same = compare_stored(_hand_bench(4, dict(STORED)), stored)
-    assert same["equal"] and same["whole"] and len(same["matched"]) == 3
-    assert same["sentence"] == (
-        "the live bench equals the stored one trial for trial on all 3 rows, all 4 "
-        "trials of each"
-    )
-    # one trial flipped, the count unchanged too: found by trial, not by count
-    flipped = {**STORED, ("mass", 2.0): [0, 1, 1, 1]}
-    c = compare_stored(_hand_bench(4, flipped), stored)
-    assert not c["equal"] and len(c["matched"]) == 2
-    assert c["differing"] == [
-        dict(knob="mass", level=2.0, live=3, stored=3, trials=[0, 1])
-    ]
-    assert c["sentence"].startswith(
-        "the live bench differs from the stored one on 1 of 3 rows, all 4 trials of "
-        "each: `mass` = 2 x (3/4 here, 3/4 stored)"
-    )
-    # the counts alone (a file without trial_success) at the same N
-    counted = _hand_bench(4, {**STORED, ("mass", 2.0): [0, 0, 1, 1]})
-    for r in counted["rows"]:
-        del r["trial_success"]
-    (d,) = compare_stored(counted, stored)["differing"]
-    assert (d["live"], d["stored"], d["trials"]) == (2, 3, None)
-
-
-def test_compare_stored_with_fewer_trials_skips_the_noise_rows():
-    stored = _hand_bench(4, STORED)
-    # the first 2 trials: obs_noise 0.01 differs, but its draws are not the stored
-    # ones at 2 trials; mass 2 differs in trial 2, which is not compared
-    live = _hand_bench(
-        2,
-        {("obs_noise", 0.0): [1, 1], ("obs_noise", 0.01): [0, 0], ("mass", 2): [1, 0]},
-    )
-    c = compare_stored(live, stored)
-    assert c["equal"] and not c["whole"] and c["trials"] == 2
-    assert c["matched"] == [("obs_noise", 0.0), ("mass", 2.0)]
-    assert [s[:2] for s in c["skipped"]] == [("obs_noise", 0.01)]
-    assert c["sentence"] == (
-        "the live bench equals the stored one trial for trial on 2 rows, the first 2 "
-        "trials of each (2 run here, 4 stored); 1 row cannot be compared at 2 trials, "
-        "`obs_noise` = 0.01 m (their noise draws depend on the trial count)"
-    )
-    live["rows"][0]["trial_success"] = [1, 0]  # a noise-free row is compared
-    c = compare_stored(live, stored)
-    assert not c["equal"] and c["differing"][0]["trials"] == [1]
-
-
-def test_compare_stored_refuses_other_settings_and_reports_missing_rows():
-    stored = _hand_bench(4, STORED)
-    c = compare_stored(_hand_bench(4, STORED, seed=0), stored)
-    assert not c["equal"] and not c["matched"]
-    assert c["sentence"] == "the benches cannot be compared (seed 0 here, 12345 stored)"
-    fewer = {k: v for k, v in STORED.items() if k[0] != "mass"}
-    more = {**STORED, ("action_delay", 1): [0, 0, 0, 0]}
-    c = compare_stored(_hand_bench(4, fewer), _hand_bench(4, more))
-    assert not c["equal"] and c["only_stored"] == [("mass", 2.0), ("action_delay", 1)]
-    assert c["sentence"].endswith(
-        "; only stored: `mass` = 2 x and `action_delay` = 1 step"
-    )
-    assert compare_stored(None, stored)["sentence"] == "no bench run here to compare"
-    assert not compare_stored(stored, None)["equal"]
-
-
-def test_stored_rows_one_row_a_task():
-    from acder_lite.robust import STORED_HEADER, stored_rows
-
-    stored = _hand_bench(4, STORED)
-    flipped = dict(STORED)
-    flipped["mass", 2.0] = [1, 1, 1, 1]
-    short = {
-        ("obs_noise", 0.0): [1, 1],
-        ("obs_noise", 0.01): [0, 0],
-        ("mass", 2): [1, 0],
-    }
-    checks = {
-        "FetchReach-v4": compare_stored(_hand_bench(4, dict(STORED)), stored),
-        "FetchPush-v4": compare_stored(_hand_bench(4, flipped), stored),
-        "FetchPickAndPlace-v4": compare_stored(_hand_bench(2, short), stored),
-        "FetchSlide-v4": compare_stored(None, stored),
-    }
-    rows = stored_rows(checks)
-    assert all(len(r) == len(STORED_HEADER) for r in rows)
-    assert rows[0] == ("Reach", 3, "4", "the same outcomes, trial for trial")
-    assert rows[1] == (
-        "Push",
-        3,
-        "4",
-        "differs on 1: `mass` = 2 x (4/4 here, 3/4 stored)",
-    )
-    assert rows[2] == (
-        "Pick&Place",
-        2,
-        "the first 2 (2 here, 4 stored)",
-        "the same outcomes, trial for trial; 1 row cannot be compared at 2 trials, "
-        "`obs_noise` = 0.01 m (their noise draws depend on the trial count)",
-    )
-    assert rows[3][1:] == ("–", "–", "no bench run here to compare")
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,62 @@
+"""Success counts over trials: how wide a count's interval is, when two are told apart
+
+A bench row (`robust.run_bench`) or a method's test episodes (`multistep_report`) are k
+successes in n trials. `wilson_interval` is the 95% interval of the rate k/n,
+`told_apart` says whether two counts' intervals do not overlap, and `separating_gap`
+how many trials apart two counts out of n must be for that. Pure arithmetic on
+(successes, trials): nothing is read or run. Which rows of a bench separate its
+columns, and chapter 10's sentence saying so, read bench results: `robust`.
+
+Traps: Wilson's interval, not the normal approximation, which leaves [0, 1] and shrinks
+to a point at k = 0 or k = n. Intervals that do not overlap are a strict test (two
+counts can differ at the 5% level while their 95% intervals overlap): "not told apart"
+is not "the same". The gap a pair needs depends on where in the range it sits: fewer
+trials near an end than in the middle.
+"""
+
+from __future__ import annotations
+
+import math
+
+
+def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson's score interval for a success rate of k in n trials (z = 1.96: 95%);
+    unlike the normal approximation it stays inside [0, 1] at k = 0 or k = n."""
+    p = k / n
+    mid = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return mid - half, mid + half
+
+
+def told_apart(a: tuple[int, int], b: tuple[int, int], z: float = 1.96) -> bool:
+    """Whether two counts (successes, trials) are told apart: their Wilson intervals
+    (`wilson_interval`, z = 1.96: 95%) do not overlap."""
+    (lo_a, hi_a), (lo_b, hi_b) = wilson_interval(*a, z), wilson_interval(*b, z)
+    return hi_a < lo_b or hi_b < lo_a
+
+
+def separating_gap(n: int, z: float = 1.96) -> dict | None:
+    """How many trials apart two counts out of `n` must be to be told apart
+    (`told_apart`): for each count k the least d with k and k + d apart; `least` and
+    `most` of these over k, each with a pair (k, k + d) that needs it (`least`'s the
+    lowest such k, `most`'s the one nearest the middle of the range). None when no two
+    counts of n are apart (n <= 3 at 95%)."""
+    need = {}
+    for k in range(n + 1):
+        d = next(
+            (d for d in range(1, n - k + 1) if told_apart((k, n), (k + d, n), z)), None
+        )
+        if d is not None:
+            need[k] = d
+    if not need:
+        return None
+    least, most = min(need.values()), max(need.values())
+    at_most = [k for k, d in need.items() if d == most]
+    k_most = min(at_most, key=lambda k: abs(2 * k + most - n))  # nearest the centre
+    k_least = min(k for k, d in need.items() if d == least)
+    return dict(
+        least=least,
+        most=most,
+        least_pair=(k_least, k_least + least),
+        most_pair=(k_most, k_most + most),
+    )

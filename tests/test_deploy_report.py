@@ -1,0 +1,94 @@
+"""Chapter 10's reading of the runs it benches (acder_lite.deploy_report), on
+hand-made runs: where the full-state policy came from, where a run crossed its
+threshold and how it ended, and whether a task's columns trained as long."""
+
+from acder_lite.deploy_report import (
+    STAND_IN,
+    TRAINING_HEADER,
+    full_state_sentence,
+    lengths_sentence,
+    training_facts,
+    training_rows,
+)
+
+
+def test_full_state_sentence_names_the_stand_ins():
+    """Chapter 10's full-state column: the grid's run, the protocol-v1 stand-in while
+    the grid's has not finished, or none."""
+    R, P, PP = "FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4"
+    grid = {e: f"results/{e}/acder/seed0" for e in (R, P, PP)}
+    assert full_state_sentence(grid) == (
+        "Every task's full-state policy is the grid's own run."
+    )
+    mixed = dict(grid, **{P: f"{STAND_IN}{P}/acder/seed0", PP: None})
+    assert full_state_sentence(mixed) == (
+        "On Reach the full-state policy is the grid's run; on Push the grid's run has "
+        "not finished, and the protocol-v1 run of the same method and seed stands in "
+        "for it (chapter 8 says what differs); on Pick&Place no full-state policy has "
+        "finished."
+    )
+
+
+def _run(success, ended, stop_reason, epochs_per_row=1, per_epoch=400):
+    """A hand-made `runs.read_run` result of FetchPush (threshold 0.95, patience 5)."""
+    rows = [
+        dict(
+            epoch=(i + 1) * epochs_per_row, episodes=(i + 1) * per_epoch, test_success=s
+        )
+        for i, s in enumerate(success)
+    ]
+    done = (
+        None
+        if ended is None
+        else dict(
+            stop_reason=stop_reason,
+            stop_rule=dict(success_threshold=0.95, patience=5),
+        )
+    )
+    return dict(
+        env="FetchPush-v4",
+        rows=rows,
+        config=dict(success_threshold=0.95, stop_patience=5),
+        done_info=done,
+        ended=ended,
+    )
+
+
+def test_training_facts_say_where_a_run_crossed_and_how_it_ended():
+    stopped = _run([0.5, 0.9, 1.0, 1.0, 1.0, 1.0, 1.0], "stop rule", "success held")
+    assert training_facts(stopped) == dict(
+        crossed="first reached 0.95 at 1,000 episodes",
+        ended="stopped once it had held 0.95 for 5 evaluations, after 7 epochs "
+        "(2,800 episodes)",
+    )  # 0.9 at 800, 1.0 at 1,200: 0.95 read halfway between
+    budget = _run([0.2, 0.97, 0.9, 0.89], "budget", "budget")
+    assert training_facts(budget) == dict(
+        crossed="first reached 0.95 at 790 episodes",
+        ended="never held 0.95 for 5 evaluations: it used its whole budget, 4 "
+        "epochs (1,600 episodes), and ended at 0.89",
+    )  # 400 + 400 * (0.95 - 0.2) / (0.97 - 0.2) = 789.6
+    running = _run([0.1, 0.3], None, None)
+    assert training_facts(running) == dict(
+        crossed="never reached 0.95",
+        ended="is still training (2 epochs (800 episodes) so far, at 0.30)",
+    )
+    both = {"full state": stopped, "simplified state": None}
+    rows = training_rows({"FetchPush-v4": both, "FetchReach-v4": {"a": running}})
+    assert len(TRAINING_HEADER) == 4 and rows == [
+        ("Push", "full state", *training_facts(stopped).values()),
+        ("", "simplified state", "–", "not trained yet"),
+        ("Reach", "a", "never reached 0.95", training_facts(running)["ended"]),
+    ]
+    assert lengths_sentence("FetchPush-v4", both) == (
+        "Not every Push column is trained: there are no lengths to compare."
+    )
+    assert lengths_sentence(
+        "FetchPush-v4", {"full state": stopped, "simplified state": budget}
+    ) == (
+        "The Push policies did not train as long: the full-state one 7 epochs (2,800 "
+        "episodes), the simplified-state one 4 epochs (1,600 episodes), so a "
+        "difference between their columns is one of training as well as of state."
+    )
+    assert lengths_sentence("FetchPush-v4", {"a": budget, "b": budget}) == (
+        "The Push policies trained as long, 4 epochs (1,600 episodes) each."
+    )

@@ -1,0 +1,128 @@
+"""A live bench against one stored by `robust --json` (acder_lite.stored_bench), on
+hand-made benches: a flipped trial is found, a shorter bench is compared on its first
+trials but for its noise rows, other settings are refused, and the book's table.
+The command's own stored bench against run_bench: test_robust.py."""
+
+from acder_lite.stored_bench import STORED_HEADER, compare_stored, stored_rows
+
+
+def _hand_bench(trials: int, rows: dict, **settings) -> dict:
+    """A bench result as run_bench or `robust --json` gives it, made by hand: rows
+    {(knob, level): per-trial outcomes}."""
+    base = dict(env="FetchPush-v4", obs="simplified", seed=12345, tolerance=0.05)
+    return dict(
+        base,
+        horizon=50,
+        trials=trials,
+        **settings,
+        rows=[
+            dict(knob=k, level=v, successes=sum(t), trials=trials, trial_success=t)
+            for (k, v), t in rows.items()
+        ],
+    )
+
+
+STORED = {
+    ("obs_noise", 0.0): [1, 1, 0, 1],
+    ("obs_noise", 0.01): [1, 0, 0, 1],
+    ("mass", 2.0): [1, 0, 1, 1],
+}
+
+
+def test_compare_stored_finds_a_differing_trial():
+    stored = _hand_bench(4, STORED)
+    same = compare_stored(_hand_bench(4, dict(STORED)), stored)
+    assert same["equal"] and same["whole"] and len(same["matched"]) == 3
+    assert same["sentence"] == (
+        "the live bench equals the stored one trial for trial on all 3 rows, all 4 "
+        "trials of each"
+    )
+    # one trial flipped, the count unchanged too: found by trial, not by count
+    flipped = {**STORED, ("mass", 2.0): [0, 1, 1, 1]}
+    c = compare_stored(_hand_bench(4, flipped), stored)
+    assert not c["equal"] and len(c["matched"]) == 2
+    assert c["differing"] == [
+        dict(knob="mass", level=2.0, live=3, stored=3, trials=[0, 1])
+    ]
+    assert c["sentence"].startswith(
+        "the live bench differs from the stored one on 1 of 3 rows, all 4 trials of "
+        "each: `mass` = 2 x (3/4 here, 3/4 stored)"
+    )
+    # the counts alone (a file without trial_success) at the same N
+    counted = _hand_bench(4, {**STORED, ("mass", 2.0): [0, 0, 1, 1]})
+    for r in counted["rows"]:
+        del r["trial_success"]
+    (d,) = compare_stored(counted, stored)["differing"]
+    assert (d["live"], d["stored"], d["trials"]) == (2, 3, None)
+
+
+def test_compare_stored_with_fewer_trials_skips_the_noise_rows():
+    stored = _hand_bench(4, STORED)
+    # the first 2 trials: obs_noise 0.01 differs, but its draws are not the stored
+    # ones at 2 trials; mass 2 differs in trial 2, which is not compared
+    live = _hand_bench(
+        2,
+        {("obs_noise", 0.0): [1, 1], ("obs_noise", 0.01): [0, 0], ("mass", 2): [1, 0]},
+    )
+    c = compare_stored(live, stored)
+    assert c["equal"] and not c["whole"] and c["trials"] == 2
+    assert c["matched"] == [("obs_noise", 0.0), ("mass", 2.0)]
+    assert [s[:2] for s in c["skipped"]] == [("obs_noise", 0.01)]
+    assert c["sentence"] == (
+        "the live bench equals the stored one trial for trial on 2 rows, the first 2 "
+        "trials of each (2 run here, 4 stored); 1 row cannot be compared at 2 trials, "
+        "`obs_noise` = 0.01 m (their noise draws depend on the trial count)"
+    )
+    live["rows"][0]["trial_success"] = [1, 0]  # a noise-free row is compared
+    c = compare_stored(live, stored)
+    assert not c["equal"] and c["differing"][0]["trials"] == [1]
+
+
+def test_compare_stored_refuses_other_settings_and_reports_missing_rows():
+    stored = _hand_bench(4, STORED)
+    c = compare_stored(_hand_bench(4, STORED, seed=0), stored)
+    assert not c["equal"] and not c["matched"]
+    assert c["sentence"] == "the benches cannot be compared (seed 0 here, 12345 stored)"
+    fewer = {k: v for k, v in STORED.items() if k[0] != "mass"}
+    more = {**STORED, ("action_delay", 1): [0, 0, 0, 0]}
+    c = compare_stored(_hand_bench(4, fewer), _hand_bench(4, more))
+    assert not c["equal"] and c["only_stored"] == [("mass", 2.0), ("action_delay", 1)]
+    assert c["sentence"].endswith(
+        "; only stored: `mass` = 2 x and `action_delay` = 1 step"
+    )
+    assert compare_stored(None, stored)["sentence"] == "no bench run here to compare"
+    assert not compare_stored(stored, None)["equal"]
+
+
+def test_stored_rows_one_row_a_task():
+    stored = _hand_bench(4, STORED)
+    flipped = dict(STORED)
+    flipped["mass", 2.0] = [1, 1, 1, 1]
+    short = {
+        ("obs_noise", 0.0): [1, 1],
+        ("obs_noise", 0.01): [0, 0],
+        ("mass", 2): [1, 0],
+    }
+    checks = {
+        "FetchReach-v4": compare_stored(_hand_bench(4, dict(STORED)), stored),
+        "FetchPush-v4": compare_stored(_hand_bench(4, flipped), stored),
+        "FetchPickAndPlace-v4": compare_stored(_hand_bench(2, short), stored),
+        "FetchSlide-v4": compare_stored(None, stored),
+    }
+    rows = stored_rows(checks)
+    assert all(len(r) == len(STORED_HEADER) for r in rows)
+    assert rows[0] == ("Reach", 3, "4", "the same outcomes, trial for trial")
+    assert rows[1] == (
+        "Push",
+        3,
+        "4",
+        "differs on 1: `mass` = 2 x (4/4 here, 3/4 stored)",
+    )
+    assert rows[2] == (
+        "Pick&Place",
+        2,
+        "the first 2 (2 here, 4 stored)",
+        "the same outcomes, trial for trial; 1 row cannot be compared at 2 trials, "
+        "`obs_noise` = 0.01 m (their noise draws depend on the trial count)",
+    )
+    assert rows[3][1:] == ("–", "–", "no bench run here to compare")

@@ -1,0 +1,36 @@
+"""Success counts over trials (acder_lite.trial_stats): Wilson's interval worked by
+hand, and when two counts out of 20 are told apart. Which bench rows separate:
+test_robust.py."""
+
+import pytest
+
+from acder_lite.trial_stats import separating_gap, told_apart, wilson_interval
+
+
+def test_wilson_interval_hand_worked():
+    # 16 of 20: p = 0.8, z = 1.96: centre (0.8 + 0.09604) / 1.19208 = 0.75166, half
+    # 1.96 / 1.19208 * sqrt(0.008 + 0.0024010) = 0.16768
+    lo, hi = wilson_interval(16, 20)
+    assert lo == pytest.approx(0.58398, abs=1e-4) and hi == pytest.approx(
+        0.91934, abs=1e-4
+    )
+    lo, hi = wilson_interval(20, 20)
+    assert hi == pytest.approx(1.0) and 0.8 < lo < 0.85
+
+
+def test_told_apart_and_the_gap_it_takes_at_20_trials():
+    # chapter 10's bench: gaps of 4 or 5 trials overlap, 7 against 17 does not
+    assert not told_apart((4, 20), (9, 20)) and not told_apart((15, 20), (20, 20))
+    assert told_apart((7, 20), (17, 20)) and told_apart((17, 20), (7, 20))
+    gap = separating_gap(20)
+    assert (gap["least"], gap["most"]) == (7, 9)
+    assert gap["least_pair"] == (0, 7) and gap["most_pair"] == (5, 14)
+    # each the least gap at its k: one trial fewer overlaps
+    assert told_apart((0, 20), (7, 20)) and not told_apart((0, 20), (6, 20))
+    assert told_apart((5, 20), (14, 20)) and not told_apart((5, 20), (13, 20))
+    assert all(  # and no k needs more than 9
+        told_apart((k, 20), (k + 9, 20)) for k in range(12)
+    )
+    assert separating_gap(3) is None  # 0 of 3 and 3 of 3 overlap at 95%
+    four = separating_gap(4)
+    assert (four["least"], four["most"], four["least_pair"]) == (4, 4, (0, 4))
