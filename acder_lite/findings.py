@@ -1,11 +1,14 @@
-"""The sentences the book says about the measured cells (chapter 8's prose).
+"""The sentences the book says about Table I and Fig. 4 (chapter 8's prose).
 
 Each function reads `report`'s cells and ratios (CellStat, RatioStat) and says in words
 what they show: the verdict on the paper's HER/ACDER ratio, the cells in the order of
-their crossings, the readings' rule applied to two cells, the controls (a constant
-bonus, (sin, cos) of the angles), the ablations against full ACDER, how far the grid
-is. Numbers are written as Table I's cells write them (`table`: the paper's names,
-episodes in its unit, the mean-curve text); the statistics themselves are `report`'s.
+their crossings, whether ACDER crosses first, our crossings beside the paper's, how far
+the grid is. Numbers are written as Table I's cells write them (`table`: the paper's
+names, episodes in its unit, the mean-curve text); the statistics themselves are
+`report`'s. The ablations of Fig. 5 are `ablation_findings`', the experiments beside the
+grid (a constant bonus, (sin, cos) of the angles, the readings) `experiment_findings`';
+both order cells and place a cell that never crossed with `order_sentence` and `reached`
+from here.
 """
 
 from __future__ import annotations
@@ -15,25 +18,18 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import TASK_PRESETS
 from .report import (
-    ABLATIONS,
     CUT_WHY,
     FIG4_METHODS,
     PAPER_TABLE_I,
     SUCCESS_TOL,
-    TAIL_EVALUATIONS,
     TASKS,
     CellStat,
     RatioStat,
-    cell_on_seeds,
-    choose,
-    column_tail,
     complete,
     grid_cells,
     learning_curves,
     paper_epochs,
-    seed_level,
     separated,
     threshold,
 )
@@ -48,7 +44,7 @@ from .table import (
     task_label,
     units,
 )
-from .words import and_join, count
+from .words import and_join, count, sentence
 
 
 def ratio_sentence(r: RatioStat) -> str:
@@ -252,19 +248,11 @@ def _verdict(
     return f"{text} {bounded}" if bounded else text
 
 
-def sentence(parts: list[str]) -> str:
-    """Clauses joined by '; ' as one sentence: first letter upper case,
-    a full stop at the end."""
-    text = "; ".join(p for p in parts if p)
-    return (
-        text[:1].upper() + text[1:] + ("." if text and not text.endswith(".") else "")
-    )
-
-
 def after_colon(text: str) -> str:
-    """A sentence of this module as it reads after a colon of the book's prose: its
-    first word in lower case ('On Reach ...' -> 'on Reach ...'), unless that word is a
-    name or an acronym ('DDPG+ACDER', 'ACDER, ...', 'S-ICM' keep theirs)."""
+    """A sentence of this module, `ablation_findings` or `experiment_findings` as it
+    reads after a colon of the book's prose: its first word in lower case ('On Reach
+    ...' -> 'on Reach ...'), unless that word is a name or an acronym ('DDPG+ACDER',
+    'ACDER, ...', 'S-ICM' keep theirs)."""
     word = text.split(" ", 1)[0].rstrip(",:;.")
     names = {
         x.split(" ", 1)[0] for x in [*TASK_LABELS.values(), *METHOD_LABELS.values()]
@@ -393,205 +381,6 @@ def _to_come(cells: list[CellStat]) -> str:
     return f" Still to come: {'; '.join(parts)}." if parts else ""
 
 
-def bonus_sentence(
-    runs: list[dict], envs, names=("her-icm", "acder"), last: int = TAIL_EVALUATIONS
-) -> str:
-    """How large the curiosity bonus is by the end, per task: the mean r_i of the
-    minibatches (progress.csv's r_int_mean) over each seed's `last` evaluations,
-    averaged over seeds (`report.column_tail`), beside the clip eta of Eq. 4. A value
-    near eta says most transitions get the clip: nearly a constant added to every
-    reward, not a ranking of states by novelty. A cell with seeds not ended yet (a run
-    whose `ended` is None) is read as far as they got, and said to be: "0.67 so far
-    (2 of its 2 seeds unfinished)"."""
-    parts = []
-    for env in envs:
-        vals = [(n, column_tail(runs, env, n, "r_int_mean", last)) for n in names]
-        eta = TASK_PRESETS[env]["eta"]
-        vals = [
-            f"{label(n)} {v:.2g} ({v / eta:.0%} of η){_so_far(runs, env, n)}"
-            for n, v in vals
-            if v is not None
-        ]
-        if vals:
-            parts.append(f"on {task_label(env)} (clip η = {eta}): {', '.join(vals)}")
-    return sentence(parts) or "No curiosity method has an evaluation yet."
-
-
-def _so_far(runs: list[dict], env: str, name: str) -> str:
-    """' so far (1 of its 3 seeds unfinished)' for a cell with runs not ended (`ended`
-    None: training or interrupted), '' otherwise."""
-    mine = [r for r in runs if r["env"] == env and r["name"] == name]
-    k = sum("ended" in r and r["ended"] is None for r in mine)
-    return f" so far ({k} of its {count(len(mine), 'seed')} unfinished)" if k else ""
-
-
-def control_sentence(her: CellStat, icm: CellStat, bonus: CellStat) -> str:
-    """The curiosity control read off the runs (experiments/constant-bonus/): the
-    crossings of DDPG+HER, DDPG+HER+ICM and DDPG+HER with a constant bonus
-    (`Config.reward_bonus`) in order, the share of ICM's gain over HER that the constant
-    alone gives, (HER - bonus) / (HER - ICM) in episodes, and where the constant's
-    crossing lies against the other two's 95% intervals."""
-    cells = [her, icm, bonus]
-    text = f"Ordered by the mean curve: {order_sentence(cells)}."
-    if reached(bonus) == math.inf and None not in (her.crossing, icm.crossing):
-        gain = her.crossing - icm.crossing
-        saved = (
-            f" none of the {units(icm, gain)} episodes {label(icm.name)} saves over "
-            f"{label(her.name)}"
-            if gain > 0
-            else f" nothing ({label(icm.name)} is no faster than {label(her.name)})"
-        )
-        # a crossing beyond the budget lies inside an interval only if that interval
-        # reaches beyond the budget too
-        inside = [c.high is not None and math.isinf(c.high) for c in (her, icm)]
-        rule = {
-            (True, False): "the shift does not explain ICM's gain, which is its own",
-            (False, True): "the shift explains ICM's gain",
-        }.get(tuple(inside), "")
-        places = " and ".join(
-            f"{'inside' if i else 'beyond'} {label(c.name)}'s 95% interval"
-            for i, c in zip(inside, (her, icm))
-        )
-        text += (
-            f" The constant's mean curve does not reach {bonus.threshold:.0%} within "
-            f"its budget, so the constant alone saves{saved}. Beyond the budget, its "
-            f"crossing lies {places}"
-        )
-        if rule:
-            return text + f": {rule}. {control_found(her, icm, bonus)}".rstrip()
-        return text + f". {control_found(her, icm, bonus, open_rule=True)}".rstrip()
-    if any(c.crossing is None for c in cells):
-        return text + " The three can be compared once each mean curve has crossed."
-    gain = her.crossing - icm.crossing
-    if gain <= 0:
-        return text + (
-            f" {label(icm.name)} is no faster than {label(her.name)} here, so there "
-            "is no gain of curiosity for the constant to explain."
-        )
-    saved = her.crossing - bonus.crossing
-    text += (
-        f" Of {label(icm.name)}'s {units(icm, gain)} episodes saved over "
-        f"{label(her.name)}, the constant alone saves {units(bonus, saved)}: "
-        f"{saved / gain:.0%}."
-    )
-
-    def against(c: CellStat) -> str:
-        inside = c.low is not None and c.low <= bonus.crossing <= c.high
-        return f"{'inside' if inside else 'outside'} {label(c.name)}'s"
-
-    text += f" Its crossing lies {against(her)} 95% interval and {against(icm)}" + (
-        f" ({bonus.done} of {count(bonus.planned, 'seed')} finished)."
-        if bonus.planned and bonus.done < bonus.planned
-        else "."
-    )
-    found = control_found(her, icm, bonus)
-    return f"{text} {found}" if found else text
-
-
-def _seed_values(c: CellStat) -> list[float] | None:
-    """A cell's seed crossings (epochs), inf for a seed that ended without one; None
-    while a seed has not ended (its crossing is not known)."""
-    if c.unfinished or not c.n:
-        return None
-    return [math.inf if x is None else x for x in c.seed_crossings]
-
-
-def _seeds_text(c: CellStat, v: list[float]) -> str:
-    """'at 15,333 and 19,600 episodes, and 1 not within budget'."""
-    at = [units(c, x) for x in sorted(v) if math.isfinite(x)]
-    never = sum(math.isinf(x) for x in v)
-    text = f"at {and_join(at)} episodes" if at else ""
-    if never:
-        text += f"{', and ' if at else ''}{never} not within budget"
-    return text
-
-
-def control_found(
-    her: CellStat, icm: CellStat, bonus: CellStat, open_rule: bool = False
-) -> str:
-    """What the constant-bonus control found, seed by seed: whether every seed of the
-    constant crosses later than every seed of DDPG+HER (it slowed HER), earlier than
-    every seed of DDPG+HER+ICM, between the two, or overlapping. `open_rule`: the rule
-    written before the runs named no outcome for this placement, and the sentence says
-    so.
-    '' while a seed of the three has not ended."""
-    v = {c.name: _seed_values(c) for c in (her, icm, bonus)}
-    if None in v.values():
-        return ""
-    b, h, i = v[bonus.name], v[her.name], v[icm.name]
-    seeds = (
-        f"the constant's seeds {_seeds_text(bonus, b)}; {label(her.name)}'s "
-        f"{_seeds_text(her, h)}"
-    )
-    if min(b) > max(h):
-        never = " or not within its budget" if max(b) == math.inf else ""
-        said = (
-            f"Every seed of the constant crosses later than every seed of "
-            f"{label(her.name)}{never} ({seeds}), so the constant slowed it"
-        )
-    elif max(b) < min(i):
-        said = (
-            f"Every seed of the constant crosses earlier than every seed of "
-            f"{label(icm.name)} ({seeds})"
-        )
-    elif min(b) >= min(i) and max(b) <= max(h):
-        said = (
-            f"The constant's seeds lie between the fastest seed of {label(icm.name)} "
-            f"and the slowest of {label(her.name)} ({seeds})"
-        )
-    else:
-        said = f"The constant's seeds overlap the others' ({seeds})"
-    if open_rule:
-        said += "; the rule, written before the runs, named no outcome for this case"
-    return said + "."
-
-
-def sincos_sentence(acder: CellStat, sincos: CellStat) -> str:
-    """The (sin, cos) experiment read off the runs by the rule its README fixed before
-    they started (experiments/sicm-sincos/): the two mean curves' crossings in order,
-    then `report.separated` (each crossing outside the other's 95% interval) once both
-    cells have all their planned seeds."""
-    text = f"Ordered by the mean curve: {order_sentence([acder, sincos])}."
-    if reached(sincos) == math.inf and complete(acder) and acder.crossing is not None:
-        # the rule with a crossing beyond the budget: outside ACDER's interval unless
-        # that reaches beyond the budget too; ACDER's outside (sin, cos)'s unless that
-        # starts at or before ACDER's crossing
-        apart = (
-            acder.high is not None
-            and not math.isinf(acder.high)
-            and (sincos.low is None or acder.crossing < sincos.low)
-        )
-        return text + (
-            f" With (sin, cos) the mean curve does not reach {sincos.threshold:.0%} "
-            "within its budget; "
-            + (
-                f"the runs separate them: {label(acder.name)} crosses first."
-                if apart
-                else "the runs do not separate them: a crossing lies inside the "
-                "other's 95% interval."
-            )
-        )
-    sep = separated(acder, sincos)
-    if sep is None:
-        left = (
-            f" ({sincos.done} of {count(sincos.planned, 'seed')} of "
-            f"{label(sincos.name)} finished)"
-            if sincos.planned
-            else ""
-        )
-        return text + (
-            " The rule is applied once both cells have all their planned seeds and a "
-            f"crossing with an interval{left}."
-        )
-    if not sep:
-        return text + (
-            " The runs do not separate them: a crossing lies inside the other's 95% "
-            "interval."
-        )
-    first = min((acder, sincos), key=lambda c: c.crossing)
-    return text + f" The runs separate them: {label(first.name)} crosses first."
-
-
 def order_sentence(cells: list[CellStat]) -> str:
     """The cells ordered by their mean curve's crossing (fewest episodes first); then
     those without one, with why ("not run yet: A, B" in one clause)."""
@@ -693,77 +482,6 @@ def first_sentence(cells: list[CellStat], tasks=TASKS, names=FIG4_METHODS) -> st
     return sentence(parts) or "No task has a DDPG+ACDER cell yet."
 
 
-def readings_decisions(norm: CellStat, raw: CellStat, goal: CellStat) -> dict:
-    """The readings' two decisions in words, as experiments/readings/README.md fixes
-    them: (a) `norm` against (b) `raw`, the paper's eta values deciding where the runs
-    do not separate them; then the winner against (c) `goal`, the default (a fresh
-    goal) deciding likewise. dict(choice, goal_choice: `choice_sentence`s; decided:
-    whether the second rule has been applied)."""
-    chosen, _ = choose(norm, raw, "sicm-raw")
-    winner = raw if chosen in (None, "sicm-raw") else norm
-    return dict(
-        choice=choice_sentence(norm, raw, "sicm-raw", "the paper's eta values"),
-        goal_choice=choice_sentence(
-            winner, goal, winner.name, "the default, a fresh goal"
-        ),
-        decided=choose(winner, goal, winner.name)[0] is not None,
-    )
-
-
-def choice_sentence(a: CellStat, b: CellStat, fallback: str, why: str) -> str:
-    """What the readings' rule (`report.choose`) makes of `a` and `b`, in words: the
-    two crossings, which lies inside the other's interval, the setting chosen
-    (`fallback`, for `why`, where the runs do not separate them)."""
-    chosen, sep = choose(a, b, fallback)
-    if chosen is not None and sep is None:  # decided by b's bound (report.choose)
-        n = max(b.planned or 0, b.n)
-        level = seed_level(n, b.threshold)
-        when = (
-            "within its budget"
-            if math.isinf(b.earliest)
-            else f"before {units(b, b.earliest)} episodes"
-        )
-        return (
-            f"The mean curve of {label(b.name)} cannot cross {when}: a mean of "
-            f"{count(n, 'seed')} reaches {b.threshold:.0%} only where every seed is "
-            f"at {level:.0%} "
-            f"or more, and its seeds so far get there no earlier. {label(a.name)} "
-            f"crossed at {units(a, a.crossing)}, so {label(b.name)} cannot cross "
-            f"first, whatever its {count(n - b.done, 'seed')} still to finish "
-            f"{'does' if n - b.done == 1 else 'do'}, and the rule keeps "
-            f"{label(a.name)}."
-        )
-    if chosen is None:
-        return (
-            f"The rule cannot be applied yet: {label(a.name)} or {label(b.name)} "
-            "has no mean-curve crossing with an interval."
-        )
-
-    def span(c: CellStat) -> str:
-        low = episodes(c.paper_units(c.low))
-        if math.isinf(c.high):
-            return f"{low} or later"
-        return f"{low} – {episodes(c.paper_units(c.high))}"
-
-    def where(c: CellStat, other: CellStat) -> str:
-        inside = other.low <= c.crossing <= other.high
-        return (
-            f"{units(c, c.crossing)} {'inside' if inside else 'outside'} {span(other)}"
-        )
-
-    said = (
-        f"The mean curves cross at {units(a, a.crossing)} episodes ({label(a.name)}) "
-        f"and {units(b, b.crossing)} ({label(b.name)}); against the other's 95% "
-        f"interval, {where(a, b)} and {where(b, a)}"
-    )
-    if not sep:
-        return (
-            f"{said}: the runs do not separate them, so the rule falls back on {why}: "
-            f"{label(chosen)}."
-        )
-    return f"{said}: the runs separate them, and {label(chosen)} crosses first."
-
-
 def reached(c: CellStat) -> float | None:
     """Where a cell's mean curve reaches the threshold, for comparing cells: its
     crossing (epochs), inf for a cell whose seeds have all ended without one (later
@@ -771,114 +489,6 @@ def reached(c: CellStat) -> float | None:
     if c.crossing is not None:
         return c.crossing
     return math.inf if c.why == "not within budget" and complete(c) else None
-
-
-def ablation_sentence(
-    cells: list[CellStat], env: str, runs: list[dict] | None = None
-) -> str:
-    """Fig. 5's claims checked on one task: every ablation slower than ACDER, and
-    (curiosity, start states) still faster than HER. A cell that ended without crossing
-    counts as later than every crossing (`reached`). At a 100% threshold an ablation
-    with fewer seeds than ACDER is named: its mean curve needs fewer seeds at 100% at
-    once (departure 29); given the `runs`, full ACDER's mean curve on those seeds alone
-    is read too (`report.cell_on_seeds`), the like-for-like comparison."""
-    by = {c.name: c for c in cells if c.env == env}
-    where = task_label(env)
-    acder, her = by.get("acder"), by.get("her")
-    abl = [by[n] for n in ABLATIONS if n in by and reached(by[n]) is not None]
-    if acder is None or reached(acder) is None or not abl:
-        return (
-            f"On {where} the ablations cannot be compared yet "
-            f"({order_sentence([by[n] for n in ('acder',) + ABLATIONS if n in by])})."
-        )
-    full = reached(acder)
-    slower = [label(c.name) for c in abl if reached(c) > full]
-    faster = [
-        label(c.name) for c in abl if reached(c) < full or reached(c) == full < math.inf
-    ]
-    neither = [label(c.name) for c in abl if reached(c) == full == math.inf]
-    text = (
-        f"On {where}, ordered by the mean curve: "
-        f"{order_sentence([by[n] for n in ('her', 'acder') + ABLATIONS if n in by])}. "
-    )
-    text += (
-        f"Crosses later than full ACDER (mean curves): {and_join(slower)}"
-        if slower
-        else "No ablation crosses later than full ACDER (mean curves)"
-    )
-    if faster:
-        text += f"; no later: {and_join(faster)}"
-    if neither:
-        text += f"; like full ACDER, not within the budget: {and_join(neither)}"
-    # the paper's reading (each ablation slower) is confirmed or contradicted only
-    # where the readings' rule separates the two cells
-    sep = [c for c in abl if separated(c, acder)]
-    agree = [label(c.name) for c in sep if reached(c) > full]
-    disagree = [label(c.name) for c in sep if reached(c) < full]
-    if agree or disagree:
-        said = [f"later, as in the paper: {and_join(agree)}" if agree else ""]
-        said.append(
-            f"earlier, unlike the paper: {and_join(disagree)}" if disagree else ""
-        )
-        text += ". Separated from full ACDER by the rule below, " + "; ".join(
-            x for x in said if x
-        )
-    if her is not None and reached(her) is not None:
-        beat = [label(c.name) for c in abl if reached(c) < reached(her)]
-        text += f". Crosses before DDPG+HER (mean curves): {and_join(beat)}"
-    fewer = [c for c in abl if c.n < acder.n]
-    if acder.threshold >= 1 and fewer:
-        text += (
-            f". At a {acder.threshold:.0%} threshold a mean curve crosses only where "
-            "every seed is at it at once, so fewer seeds favour a cell: "
-            + and_join([f"{label(c.name)} ({count(c.n, 'seed')})" for c in fewer])
-            + f" against full ACDER's {acder.n}; the table's per-seed crossings "
-            "compare them more fairly"
-        )
-        common = sorted(set.intersection(*(set(c.seeds) for c in fewer)), key=str)
-        same = cell_on_seeds(runs or [], env, "acder", common) if common else None
-        if same is not None:
-            text += (
-                f", and so does full ACDER's mean curve on their seeds "
-                f"({', '.join(map(str, common))}) alone: {mean_text(same)}"
-            )
-    return text + "."
-
-
-def separated_sentence(cells: list[CellStat], tasks=TASKS) -> str:
-    """Which ablations the readings' rule (`report.separated`: each crossing outside
-    the other's 95% interval) separates from full ACDER, task by task; a task is left
-    out, and named as such, until every planned seed of its ablations and of ACDER has
-    ended."""
-    by = {(c.env, c.name): c for c in cells}
-    parts, waiting, read = [], [], []
-    for e in tasks:
-        if (e, "acder") not in by or any((e, n) not in by for n in ABLATIONS):
-            continue
-        rule = {n: separated(by[e, n], by[e, "acder"]) for n in ABLATIONS}
-        if None in rule.values():
-            waiting.append(task_label(e))
-            continue
-        parts.append(
-            f"on {task_label(e)}: " + and_join([label(n) for n, s in rule.items() if s])
-        )
-        read.append(e)
-    if not parts:
-        return "No task has all its ablations finished yet."
-    capped = [task_label(e) for e in read if threshold(e) >= 1]
-    if capped:
-        parts[-1] += (
-            f". On {and_join(capped)} the threshold is 100%, where an interval cannot "
-            "extend to later crossings: a later crossing always lies outside the "
-            "earlier one's interval, so only one side of the rule is tested"
-        )
-    if not waiting:
-        return sentence(parts)
-    return (
-        f"{sentence(parts)} {and_join(waiting)} "
-        f"{'is' if len(waiting) == 1 else 'are'} left out until "
-        "the seeds of its ablations and of full ACDER have all ended."
-    )
 
 
 def seed_ratio_sentence(rs: list[RatioStat]) -> str:

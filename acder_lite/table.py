@@ -9,7 +9,8 @@ against the plan file (`<results>/plan.toml`, or `--plan FILE`) where there is o
 
 This module only renders the table (its text cells, markdown, HTML for the book) and
 runs the CLI; reading run folders is `runs`', the statistics are `report`'s and the
-sentences the book says about them are `findings`' (import them from there).
+sentences the book says about them are `findings`', `ablation_findings`' and
+`experiment_findings`' (import them from there).
 """
 
 from __future__ import annotations

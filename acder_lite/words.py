@@ -1,5 +1,6 @@
 """Counts and lists in English, for the CLI's lines and the book's sentences: one rule
-for "1 trial" against "2 trials", so no output says "1 trials" or "trial(s)"."""
+for "1 trial" against "2 trials", so no output says "1 trials" or "trial(s)"; and
+clauses joined into one sentence (`sentence`)."""
 
 from __future__ import annotations
 
@@ -20,3 +21,12 @@ def and_join(items: list[str]) -> str:
     if not items:
         return "none"
     return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
+def sentence(parts: list[str]) -> str:
+    """Clauses joined by '; ' as one sentence: first letter upper case,
+    a full stop at the end."""
+    text = "; ".join(p for p in parts if p)
+    return (
+        text[:1].upper() + text[1:] + ("." if text and not text.endswith(".") else "")
+    )

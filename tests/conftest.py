@@ -69,7 +69,8 @@ def rows_of(path) -> list[dict]:
 def curve_cell(name: str, values, env="FetchPush-v4", ended="budget", seeds=2):
     """A cell of `seeds` equal seeds whose test success at epochs 1, 2, ... is `values`
     (400 episodes an epoch, a budget of len(values) epochs), through report.cell_stat:
-    for Table I's text cells (table) and the book's sentences (findings)."""
+    for Table I's text cells (table) and the book's sentences (findings,
+    ablation_findings, experiment_findings)."""
     from acder_lite.report import cell_stat
 
     rows = [
@@ -93,7 +94,7 @@ def curve_cell(name: str, values, env="FetchPush-v4", ended="budget", seeds=2):
 def push_cell(name: str, crossing, low, high):
     """A FetchPush CellStat with only a mean-curve crossing and its interval (epochs),
     for the readings' rule (report.choose) and its sentence
-    (findings.choice_sentence)."""
+    (experiment_findings.choice_sentence)."""
     from acder_lite.report import CellStat
 
     return CellStat(
