@@ -1,5 +1,6 @@
 """Small helpers for the book's notebooks: show a package function's source,
-the budgets."""
+the budgets, glue and how numbers are written, and what chapter 1 counts of a random
+policy's episodes (`random_episode_stats`)."""
 
 from __future__ import annotations
 
@@ -150,3 +151,43 @@ def episode_stats(ep: dict, env) -> dict:
         moved=moved,
         dist=dist,
     )
+
+
+def random_policy(rng, action_dim: int = 4):
+    """A uniformly random policy for `rollout.run_episodes`: `act(o, g)` draws one
+    action a row of `o` from `rng`, each entry uniform in [-1, 1]."""
+    return lambda o, g: rng.uniform(-1.0, 1.0, (len(o), action_dim))
+
+
+def random_episode_stats(
+    env_id: str, episodes: int, rng, workers: int = 4, seed: int = 100
+) -> dict:
+    """`episode_stats` of a uniformly random policy (`random_policy(rng)`) on `env_id`
+    over `episodes // workers` rounds of `rollout.run_episodes`, each stepping
+    `workers` envs together (seeded `seed`, `seed + 1`, ...): one array a key, the
+    rounds' episodes concatenated (`episodes // workers * workers` of them).
+
+    Trap: the actions are drawn from the caller's `rng`, which this advances. Chapter 1
+    measures its tasks in turn from one generator, so a task's draws follow the ones
+    before it: measure them in the same order with the same generator for its
+    numbers."""
+    import numpy as np
+
+    from . import envs as E
+    from .rollout import run_episodes
+
+    if not 1 <= workers <= episodes:
+        raise ValueError(
+            f"episodes={episodes}, workers={workers}: allowed 1 <= workers <= episodes"
+        )
+    envs = [E.make_env(env_id, seed=seed + i) for i in range(workers)]
+    act, horizon = random_policy(rng), E.horizon(env_id)
+    try:
+        per = [
+            episode_stats(run_episodes(envs, act, horizon), envs[0])
+            for _ in range(episodes // workers)
+        ]
+    finally:
+        for env in envs:
+            env.close()
+    return {key: np.concatenate([p[key] for p in per]) for key in per[0]}

@@ -2,11 +2,12 @@
 
 Chapter 10 benches two ACDER policies a task, seed 0: the full state's, the grid's run
 (results/<task>/acder/seed0) or, until that has finished, the protocol-v1 run that
-stands in for it (`STAND_IN`), and the simplified state's (experiments/deploy/). From
-the folder `runs.finished_run` chose for each and what `runs.read_run` read of it
-(progress.csv, config.json, done.json) this module writes the chapter's words:
-`full_state_sentence`, `training_rows` (a table under `TRAINING_HEADER`, a row a policy,
-from `training_facts`) and `lengths_sentence`.
+stands in for it (`STAND_IN`), and the simplified state's (experiments/deploy/).
+`policies` finds each one's folder (`runs.finished_run`) and `policy_lines` lists them.
+From those folders and what `runs.read_run` read of them (progress.csv, config.json,
+done.json) this module writes the chapter's words: `full_state_sentence`,
+`training_rows` (a table under `TRAINING_HEADER`, a row a policy, from
+`training_facts`) and `lengths_sentence`.
 
 Traps: each run ended by its own stop rule or budget, so a task's two columns need not
 have trained as long, and a difference between them is then one of training too
@@ -28,6 +29,39 @@ STAND_IN = "experiments/protocol-v1/"
 """Where chapter 10's full-state column finds a policy while the grid's own run
 (results/<task>/acder/seed0) has not finished: the protocol-v1 run of the same method
 and seed."""
+
+
+def policies(root, tasks) -> dict[str, dict[str, str | None]]:
+    """Chapter 10's two ACDER policies of each of `tasks`, seed 0, as {task: {"full
+    state": folder, "simplified state": folder}}: each the folder, relative to `root`,
+    of a finished run (`runs.finished_run`), or None (not trained yet). The full
+    state's is the grid's run (results/<task>/acder/seed0), else its `STAND_IN`; the
+    simplified state's is experiments/deploy/<task>/acder-simplified/seed0."""
+    from .runs import finished_run
+
+    return {
+        env: {
+            "full state": finished_run(
+                root,
+                f"results/{env}/acder/seed0",
+                f"{STAND_IN}{env}/acder/seed0",  # until the grid's run has finished
+            ),
+            "simplified state": finished_run(
+                root, f"experiments/deploy/{env}/acder-simplified/seed0"
+            ),
+        }
+        for env in tasks
+    }
+
+
+def policy_lines(folders: dict[str, dict[str, str | None]]) -> list[str]:
+    """A line a policy of `policies`' answer: its task, its column and its folder, or
+    'not trained yet'."""
+    return [
+        f"{env:22s} {label:17s} {folder or 'not trained yet'}"
+        for env, cols in folders.items()
+        for label, folder in cols.items()
+    ]
 
 
 def full_state_sentence(folders: dict[str, str | None]) -> str:

@@ -350,6 +350,13 @@ def reading(label: str, result: dict | None) -> str:
     return head + f" and in {low['successes']} at its weakest, " + and_join(levels)
 
 
+def readings(bench: dict[tuple[str, str], dict], env: str, labels) -> str:
+    """A task's columns read in turn (`reading`), joined by '; ': `bench` maps (task,
+    column label) to a `run_bench` result, as `bench_policies` gives it; a label of
+    `labels` with no bench of `env` reads as not trained yet."""
+    return "; ".join(reading(label, bench.get((env, label))) for label in labels)
+
+
 def side_by_side(results: dict[str, dict]) -> str:
     """A Markdown table of several benches: a row per (knob, level) in the order the
     benches met them, a column per bench (`results`: {column label: `run_bench`
@@ -437,6 +444,45 @@ def perturbed_policy(path: str, env, setting: dict, seed: int) -> Perturbed:
         dict(nominal(), **setting),
         np.random.default_rng([NOISE_STREAM, seed]),
     )
+
+
+def bench_policies(
+    root,
+    policies: dict[str, dict[str, str | None]],
+    trials: int = PAPER_TRIALS,
+    seed: int = 0,
+    knobs: dict | None = None,
+) -> tuple[dict[tuple[str, str], dict], list[str]]:
+    """Every policy of `policies` ({task: {column label: run folder relative to `root`,
+    or None}}, as `deploy_report.policies` gives it) through `run_bench` on its own
+    observation set, the None ones skipped (not trained yet).
+
+    Returns the benches, {(task, label): `run_bench` result} in the order met, and a
+    line a bench: its nominal count and how far its run had trained
+    (`export.trained_text`). The same `seed` for every policy: a task's columns then
+    replay the same starts and noise, and differ only by the policy."""
+    from pathlib import Path
+
+    from .export import trained_of, trained_text
+
+    bench, lines = {}, []
+    for env, cols in policies.items():
+        for label, folder in cols.items():
+            if folder is None:
+                continue
+            pol, path = load_policy(str(Path(root) / folder))
+            act, obs = policy_act(pol, path, env_id=env)  # refuses another task's
+            res = run_bench(act, env, obs, knobs=knobs, trials=trials, seed=seed)
+            bench[env, label] = res
+            nom = [r for r in res["rows"] if r["nominal"]]  # not always the first row
+            score = (
+                f"nominal {nom[0]['successes']}/{nom[0]['trials']}"
+                if nom
+                else "no nominal level run"
+            )
+            trained = trained_text(trained_of(pol, path))
+            lines.append(f"{env} {label}: {score}; {trained}")
+    return bench, lines
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

@@ -1,5 +1,7 @@
 """The book's helpers for every chapter (acder_lite.book_utils): the budgets, how
-shares and vectors are written."""
+shares and vectors are written, chapter 1's random-policy episodes."""
+
+import pytest
 
 from acder_lite.book_utils import budgets, vector_text
 
@@ -33,3 +35,36 @@ def test_percent_range_gives_both_ends_the_same_decimals():
 def test_vector_text_prints_no_negative_zero():
     assert vector_text([1.3634, -0.0001, -0.1384]) == "[ 1.363  0.000 -0.138]"
     assert vector_text([[-0.0, 0.26]], digits=1) == "[ 0.0  0.3]"
+
+
+def test_random_episode_stats_draws_from_the_callers_generator():
+    """Chapter 1's random-policy episodes: `workers` envs seeded from `seed`, actions
+    drawn from the generator passed in, which it advances (the chapter measures its
+    tasks in turn from one generator)."""
+    import numpy as np
+
+    from acder_lite import envs as E
+    from acder_lite.book_utils import EPISODE_STATS, episode_stats
+    from acder_lite.book_utils import random_episode_stats, random_policy
+    from acder_lite.rollout import run_episodes
+
+    rng = np.random.default_rng(0)
+    first = random_episode_stats("FetchReach-v4", 5, rng, workers=2)
+    second = random_episode_stats("FetchReach-v4", 5, rng, workers=2)
+    assert set(first) == {*EPISODE_STATS, "dist"}
+    assert first["success"].shape == (4,) and first["dist"].shape == (4, 50)
+    assert first["moved"].all()  # Reach's achieved goal is the gripper: it moves
+    assert np.array_equal(first["earned"], first["success"] & ~first["start"])
+    # the same episodes by hand, the draws continuing across the two calls
+    by_hand, act = [], random_policy(np.random.default_rng(0))
+    for _ in range(2):
+        envs = [E.make_env("FetchReach-v4", seed=100 + i) for i in range(2)]
+        for _ in range(2):
+            by_hand.append(episode_stats(run_episodes(envs, act, 50), envs[0]))
+    for got, rounds in ((first, by_hand[:2]), (second, by_hand[2:])):
+        assert np.array_equal(got["dist"], np.concatenate([p["dist"] for p in rounds]))
+    assert not np.array_equal(first["dist"], second["dist"])  # not drawn afresh
+    u = random_policy(np.random.default_rng(1))(np.zeros((3, 10)), None)
+    assert u.shape == (3, 4) and np.abs(u).max() <= 1.0
+    with pytest.raises(ValueError, match="workers <= episodes"):
+        random_episode_stats("FetchReach-v4", 1, rng, workers=2)

@@ -1,12 +1,15 @@
 """Chapter 10's reading of the runs it benches (acder_lite.deploy_report), on
-hand-made runs: where the full-state policy came from, where a run crossed its
-threshold and how it ended, and whether a task's columns trained as long."""
+hand-made runs: which finished run each column takes, where the full-state policy came
+from, where a run crossed its threshold and how it ended, and whether a task's columns
+trained as long."""
 
 from acder_lite.deploy_report import (
     STAND_IN,
     TRAINING_HEADER,
     full_state_sentence,
     lengths_sentence,
+    policies,
+    policy_lines,
     training_facts,
     training_rows,
 )
@@ -92,3 +95,36 @@ def test_training_facts_say_where_a_run_crossed_and_how_it_ended():
     assert lengths_sentence("FetchPush-v4", {"a": budget, "b": budget}) == (
         "The Push policies trained as long, 4 epochs (1,600 episodes) each."
     )
+
+
+def test_policies_take_a_finished_run_and_the_stand_in_until_the_grids_finishes(
+    tmp_path,
+):
+    """A folder counts once it holds done.json and policy.pt: the grid's run before
+    its stand-in, the stand-in while the grid's is still training, else None."""
+    R, P, PP = "FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4"
+
+    def run(folder, finished=True):
+        (tmp_path / folder).mkdir(parents=True)
+        for name in ("policy.pt", "done.json") if finished else ("policy.pt",):
+            (tmp_path / folder / name).write_text("{}")
+
+    run(f"results/{R}/acder/seed0")
+    run(f"{STAND_IN}{R}/acder/seed0")  # not taken: the grid's run has finished
+    run(f"experiments/deploy/{R}/acder-simplified/seed0")
+    run(f"results/{P}/acder/seed0", finished=False)  # still training
+    run(f"{STAND_IN}{P}/acder/seed0")
+    run(f"experiments/deploy/{PP}/acder-simplified/seed0", finished=False)
+    got = policies(tmp_path, [R, P, PP])
+    assert got == {
+        R: {
+            "full state": f"results/{R}/acder/seed0",
+            "simplified state": f"experiments/deploy/{R}/acder-simplified/seed0",
+        },
+        P: {"full state": f"{STAND_IN}{P}/acder/seed0", "simplified state": None},
+        PP: {"full state": None, "simplified state": None},
+    }
+    lines = policy_lines(got)
+    assert len(lines) == 6
+    assert lines[0] == f"{R:22s} {'full state':17s} results/{R}/acder/seed0"
+    assert lines[3] == f"{P:22s} simplified state  not trained yet"

@@ -16,6 +16,7 @@ from acder_lite.config import ConfigError
 from acder_lite.perturb import KNOBS, nominal, parse_perturb
 from acder_lite.robust import (
     Bench,
+    bench_policies,
     load_policy,
     perturbed_policy,
     policy_act,
@@ -25,6 +26,7 @@ from acder_lite.robust import (
     side_by_side,
     weakest,
     reading,
+    readings,
 )
 from acder_lite.stored_bench import compare_stored
 
@@ -181,6 +183,21 @@ def test_separated_rows_lists_the_rows_whose_columns_are_told_apart():
         "the range (0 against 4 of 4);"
     )
     assert "no two counts are told apart" in separation_sentence(2, [])
+
+
+def test_readings_read_a_tasks_columns_in_the_order_given():
+    P = "FetchPush-v4"
+    bench = {
+        (P, "simplified state"): _bench(
+            ("obs_noise", 0.0, 20), ("obs_noise", 0.02, 17)
+        ),
+        ("FetchReach-v4", "full state"): _bench(("goal_noise", 0.0, 3)),  # not Push's
+    }
+    assert readings(bench, P, ["simplified state", "full state"]) == (
+        "the simplified-state policy succeeds in 20 of 20 trials unperturbed and in "
+        "17 at its weakest, `obs_noise` = 0.02 m; the full-state policy is not "
+        "trained yet"
+    )
 
 
 def test_determinism_for_a_seed_and_common_trials():
@@ -461,3 +478,30 @@ def test_the_bench_equals_the_one_the_command_stored(cli, controller_policy, tmp
     assert [s[:2] for s in c["skipped"]] == [("goal_noise", 0.01)]
     other = run_bench(act, "FetchReach-v4", obs, trials=6, **dict(kw, seed=1))
     assert not compare_stored(other, dict(stored, seed=1))["equal"]
+
+
+def test_bench_policies_benches_every_trained_column(controller_policy):
+    """Chapter 10's benches: `run_bench` of each policy found, on its own observation
+    set and the seed given, with a line of its nominal count; a column without a
+    folder is skipped, and a folder holding another task's policy is refused."""
+    root, folder = controller_policy.parent.parent, controller_policy.parent.name
+    knobs = {"goal_noise": [0.2, 0.0]}  # the target shown 20 cm off, then nominal
+    cols = {"full state": folder, "simplified state": None}
+    kw = dict(trials=3, seed=5, knobs=knobs)
+    bench, lines = bench_policies(root, {"FetchReach-v4": cols}, **kw)
+    assert list(bench) == [("FetchReach-v4", "full state")]
+    act, obs = policy_act(*load_policy(str(controller_policy)))
+    alone = run_bench(act, "FetchReach-v4", obs, **kw)
+    assert bench["FetchReach-v4", "full state"]["rows"] == alone["rows"]
+    shaken, nominal_row = alone["rows"]
+    assert nominal_row["nominal"] and nominal_row["successes"] == 3
+    assert shaken["successes"] < 3
+    assert lines == [
+        "FetchReach-v4 full state: nominal 3/3; how far its run had trained is not "
+        "recorded"
+    ]  # the nominal row found by its flag: here the second
+    assert readings(bench, "FetchReach-v4", cols).endswith(
+        "; the simplified-state policy is not trained yet"
+    )
+    with pytest.raises(ConfigError, match="is not the policy's task"):
+        bench_policies(root, {"FetchPush-v4": cols}, **kw)
