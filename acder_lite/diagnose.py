@@ -23,6 +23,9 @@ pool reports each block (the gripper's distance to it, its distance to its own t
 and the motion is per block. The one-object tasks report exactly the numbers they always
 did.
 
+`minibatch_errors` takes S-ICM's error on training minibatches (chapter 6); its error
+on whole episodes, chapter 4's familiar against unseen transitions, is `novelty`'s.
+
 Nothing is trained and nothing in the run folder is written, except the `--json` file if
 asked. Two traps it exists to show: when many rows sit at the clip, "the largest
 intrinsic reward" is a tie and the candidate is in effect any clipped row of a
@@ -218,39 +221,6 @@ def minibatch_errors(trainer, batches: int = 10) -> dict:
     return dict(err=err, successful=ok, eta=float(trainer.cfg.eta))
 
 
-def episode_errors(trainer, ep: dict, eta: float = np.inf) -> np.ndarray:
-    """Eq. 4 for every step of whole episodes, shape (W, T), without training the model.
-
-    `ep` holds arrays with a leading env axis, as `acder_lite.rollout.run_episodes`
-    returns them: o (W, T+1, .), g and u (W, T, .). The model sees them as the trainer
-    gives them to it (`Trainer.curiosity_inputs`, so `Config.sicm_input` decides
-    normalised or raw); `eta=inf` leaves out the clip and returns the model's error
-    itself."""
-    from .rewards import intrinsic_reward
-
-    if not isinstance(trainer.curiosity, SICM):
-        raise ConfigError(
-            f"method={trainer.cfg.method!r} has no S-ICM; "
-            "allowed: acder and its ablations"
-        )
-    W, T = ep["u"].shape[:2]
-
-    def flat(a):
-        return np.ascontiguousarray(a).reshape(W * T, -1)
-
-    batch = dict(
-        o=flat(ep["o"][:, :-1]),
-        o2=flat(ep["o"][:, 1:]),
-        g=flat(ep["g"]),
-        u=flat(ep["u"]),
-    )
-    tb = trainer.batch_tensors(batch)
-    s, s2 = trainer.curiosity_inputs(batch, tb)
-    with torch.no_grad():
-        pred = trainer.curiosity(s, tb["u"])
-    return intrinsic_reward(pred.cpu().numpy(), s2.cpu().numpy(), eta).reshape(W, T)
-
-
 def goal_factor_against_object(
     grip: np.ndarray,
     obj: np.ndarray,
@@ -286,154 +256,6 @@ def goal_factor_against_object(
         angle=360.0 * (goal_oriented_factor(grip, goal, to_obj) - 1.0),
         moved=np.linalg.norm(goal - obj, axis=-1) > moved,
     )
-
-
-def clip_effect(familiar: float, new: float, name: str) -> tuple[str, bool]:
-    """What a clip eta does to one S-ICM input's errors, in words (chapter 4), from
-    the shares of familiar and of new transitions at or above it: (sentence, whether
-    it keeps the novelty gap).
-
-    The criterion is the start-state rule's, the one chapter 8 ("What S-ICM sees") and
-    book/departures.md (departure 6) apply to the paper's eta values: the rule ranks
-    the rows of successful episodes by their *clipped* r^i (Eq. 4), and the paper uses
-    the clip "to keep novelty gap between states". Every error at or above eta earns
-    the same r^i = eta, so a clip keeps that gap, i.e. still ranks states by novelty,
-    only where most errors fall below it:
-
-    - no error reaches it: it ranks every state and only bounds outliers not seen in
-      these errors (True);
-    - most of both sets fall below it, some reach it: it ranks the ones below and caps
-      the rest (True);
-    - most of either set reach it (a share above a half): curiosity is a flat bonus
-      there, and the "most novel" state a tie between rows at eta (False).
-    """
-    most = [k for k, v in (("familiar", familiar), ("new", new)) if v > 0.5]
-    if len(most) == 2:
-        return (
-            f"most {name} errors sit at the clip, making curiosity a flat bonus that "
-            "ranks none of them",
-            False,
-        )
-    if most:
-        return (
-            f"most of the {most[0]} {name} errors sit at the clip, where they tie",
-            False,
-        )
-    if max(familiar, new) == 0:
-        return (
-            f"no {name} error here reaches it, so it ranks every state and only bounds "
-            "outliers not seen here",
-            True,
-        )
-    return (
-        f"most {name} errors fall below it, which it ranks, and it caps the part "
-        "that reaches it",
-        True,
-    )
-
-
-def novelty_contrast(
-    medians: dict[str, list[float]],
-    at_clip: dict[str, tuple[float, float]],
-    eta: float,
-) -> dict[str, str]:
-    """Chapter 4's familiar-against-unseen comparison in words, from the numbers.
-
-    `medians`: per S-ICM input, the median errors of the familiar transitions, of
-    fresh exploration, then of one or more scripted excursions, in that order.
-    `at_clip`: per input, the shares of familiar and of new transitions at or above
-    the clip `eta`. Returns sentences (Markdown, no maths):
-
-    - `scripted`: whether the scripted excursions are predicted worse than both the
-      familiar transitions and fresh exploration, and their medians over the
-      familiar one;
-    - `new`: fresh exploration's median over the familiar one, and whether it comes
-      closer to it than every scripted excursion;
-    - `tail`: per input, which of familiar and new transitions reach the clip more
-      often (no leading capital: the chapter writes "At eta = ..., " before it);
-    - `summary`: the three in one sentence, without a capital or a full stop.
-    """
-    if not medians or any(len(m) < 3 for m in medians.values()):
-        raise ValueError(
-            "novelty_contrast: each input needs the medians of familiar, new and at "
-            "least one scripted set"
-        )
-
-    r = {i: np.asarray(m, np.float64) / m[0] for i, m in medians.items()}
-    scripted, short = _scripted_sentence(medians, r)
-    closer = all(v[1] < min(v[2:]) for v in r.values())
-    how = "comes closer" if closer else "does not come closer"
-    than = "any" if closer else "every"
-    new = (
-        f"Fresh exploration {how} to the familiar transitions than {than} scripted "
-        "excursion: its median error is "
-        + _on_each([(f"{v[1]:.2g} times", i) for i, v in r.items()])
-        + "."
-    )
-    tail = _clip_tail(at_clip)
-    summary = (
-        f"{short} {_WORSE}; fresh exploration's median error is "
-        f"{_times([v[1] for v in r.values()])} the familiar one; and at η = {eta:g}, "
-        f"{tail}"
-    )
-    return dict(scripted=scripted, new=new, tail=tail, summary=summary)
-
-
-_WORSE = "predicted worse than both the familiar transitions and fresh exploration"
-
-
-def _times(v) -> str:
-    """Ratios as "3.1 times" or "2.5 to 4 times"."""
-    lo, hi = f"{min(v):.2g}", f"{max(v):.2g}"
-    return f"{lo} times" if lo == hi else f"{lo} to {hi} times"
-
-
-def _on_each(parts: list[tuple[str, str]]) -> str:
-    """(text, input) pairs as "T1 the familiar one on raw inputs and T2 on ... ones"."""
-    said = [f"{parts[0][0]} the familiar one on {parts[0][1]} inputs"]
-    return " and ".join(said + [f"{t} on {i} ones" for t, i in parts[1:]])
-
-
-def _scripted_sentence(medians: dict, r: dict) -> tuple[str, str]:
-    """`novelty_contrast`'s `scripted` sentence, and its short form for the summary."""
-    over = [i for i, m in medians.items() if min(m[2:]) > max(m[:2])]
-    where = "the scripted excursions, which go where the buffer has never been,"
-    if len(over) == len(r):
-        on = "on both inputs" if len(r) == 2 else "on all inputs"
-        lead, short = f"{on} {where} are {_WORSE}", f"{on} the scripted excursions are"
-    else:
-        on = f"only on {' and '.join(over)} inputs" if over else "on no input"
-        lead, short = f"{on} are {where} {_WORSE}", f"{on} are the scripted excursions"
-    scripted = (
-        f"{lead[0].upper()}{lead[1:]}: their median errors are "
-        + _on_each([(_times(v[2:]), i) for i, v in r.items()])
-        + "."
-    )
-    return scripted, short
-
-
-def _clip_tail(at_clip: dict[str, tuple[float, float]]) -> str:
-    """`novelty_contrast`'s `tail`: per input, which of familiar and new transitions
-    reach the clip more often."""
-    parts = []
-    for i, (f, n) in at_clip.items():
-        if f == n == 0:
-            parts.append(f"neither familiar nor new transitions reach it on {i} inputs")
-        elif f != n:
-            a, b, x, y = (
-                ("familiar", "new", f, n) if f > n else ("new", "familiar", n, f)
-            )
-            parts.append(
-                f"{a} transitions reach it more often than {b} ones on {i} inputs "
-                f"({x:.2g} against {y:.2g})"
-            )
-        else:
-            parts.append(
-                f"familiar and new transitions reach it equally often on {i} inputs "
-                f"({f:.2g})"
-            )
-    parts[0] = parts[0].replace("reach it", "reach the clip", 1)
-    return ", while ".join(parts)
 
 
 def pool_positions(trainer, env=None) -> dict:

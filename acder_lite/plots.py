@@ -8,7 +8,8 @@ stop rule is carried forward, and a dot where the mean first reaches the thresho
 Missing runs come back in the returned status ("not run yet"), never as an error.
 `seed_ends` says where each seed's curve ends; `plot_diagnostics` draws ACDER's
 diagnostics of one run; `chance_panel` draws a task's curves beside the test success
-no learning is needed for (chapter 9's chance level).
+no learning is needed for (chapter 9's chance level). `clip_histogram` and
+`clip_share_curves` draw chapter 4's S-ICM errors against the clip eta (`novelty`).
 
 The figures are drawn for the book's text column: `WIDTH` inches wide at `DPI`, text at
 least `FONT` points, and a legend of learning curves under its axes (`legend_below`),
@@ -468,3 +469,41 @@ def plot_block_paths(ax, ep: dict, env) -> None:
     ax.set_ylabel("y (m)")
     ax.set_aspect("equal")
     ax.legend(fontsize=FONT, loc="best")
+
+
+def clip_histogram(ax, familiar: np.ndarray, new: np.ndarray, eta: float, inp: str):
+    """Chapter 4's S-ICM errors of familiar and of new transitions as the reward Eq. 4
+    makes of them, clip(error, 0, `eta`), on log-spaced bins from a tenth of eta (or
+    the smallest error, if lower, but not below 1e-6) up to eta: each bar a share of
+    its set, so that sets of any size compare, the last bin holding every error at the
+    clip; the title gives the two shares at or above eta, the x label the S-ICM input
+    `inp`."""
+    fam, new = np.ravel(familiar), np.ravel(new)
+    lo = min(max(min(fam.min(), new.min()), 1e-6), eta / 10)
+    bins = np.geomspace(lo, eta, 30)  # log-spaced: the errors span decades
+    for e, label in [(fam, "familiar"), (new, "new exploration")]:
+        w = np.full(e.size, 1 / e.size)  # shares, so the two sets compare
+        ax.hist(np.clip(e, lo, eta), bins=bins, weights=w, alpha=0.6, label=label)
+    ax.set_xscale("log")
+    clip = rf"$r^i = \operatorname{{clip}}(\mathrm{{error}}, 0, {eta:.2f})$"
+    ax.set_xlabel(f"{clip}, input {inp!r} (log scale)")
+    ax.set_ylabel("share of transitions")
+    at = f"familiar {np.mean(fam >= eta):.2f}, new {np.mean(new >= eta):.2f}"
+    ax.set_title(f"share at the clip (the last bin): {at}", fontsize=10)
+    ax.legend()
+
+
+def clip_share_curves(ax, etas, shares: dict[str, dict], marks=(0.05, 0.8)):
+    """The share of S-ICM errors at or above the clip against the clip eta (a log
+    axis), a curve per input and set of `shares` (`novelty.shares_at` over `etas`),
+    one line style per input; `marks` (the paper's two eta values) dotted. The legend
+    goes under the axes (`legend_below`)."""
+    styles = ["-", "--", "-."]  # a line style per input; ":" marks the paper's etas
+    for i, (inp, sets) in enumerate(shares.items()):
+        for name, y in sets.items():
+            ax.semilogx(etas, y, styles[i % len(styles)], label=f"{inp}: {name}")
+    for x in marks:
+        ax.axvline(x, color="gray", ls=":")
+    ax.set_xlabel(r"the clip $\eta$")
+    ax.set_ylabel("share at the clip")
+    legend_below(ax)

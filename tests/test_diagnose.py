@@ -500,26 +500,6 @@ def test_minibatch_errors_match_the_trainers_intrinsic_reward():
     assert np.ptp(seen["r"]) > 0  # distinct rows, compared one by one
 
 
-@pytest.mark.parametrize("sicm_input", ["normalised", "raw"])
-def test_episode_errors_are_eq4_of_each_step(sicm_input):
-    from acder_lite.rewards import intrinsic_reward
-    from acder_lite.rollout import run_episodes
-
-    tr = _push_trainer(sicm_input=sicm_input)
-    ep = run_episodes(tr.envs, tr.explore_act, tr.T)
-    err = D.episode_errors(tr, ep)
-    assert err.shape == (len(tr.envs), tr.T)
-    clipped = D.episode_errors(tr, ep, eta=tr.cfg.eta)
-    np.testing.assert_allclose(clipped, np.minimum(err, tr.cfg.eta))
-    # one step by hand, through the trainer's own inputs
-    b = dict(o=ep["o"][:1, 3], o2=ep["o"][:1, 4], g=ep["g"][:1, 3], u=ep["u"][:1, 3])
-    tb = tr.batch_tensors(b)
-    s, s2 = tr.curiosity_inputs(b, tb)
-    with torch.no_grad():
-        want = intrinsic_reward(tr.curiosity(s, tb["u"]).numpy(), s2.numpy(), np.inf)
-    np.testing.assert_allclose(err[0, 3], want[0], rtol=1e-6)
-
-
 def test_errors_need_sicm():
     from acder_lite.config import ConfigError
 
@@ -549,60 +529,6 @@ def test_goal_factor_against_object_by_hand():
     np.testing.assert_allclose(f["lam_obj"], [1, 1.25, 1.25, 1])
     wider = D.goal_factor_against_object(grip, obj, goal, u, moved=0.3)
     assert not wider["moved"].any()  # 0.3 m: no goal lies that far from the block
-
-
-@pytest.mark.parametrize(
-    "familiar, new, said, keeps",
-    [
-        (0.6, 0.9, "most raw errors sit at the clip", False),  # both above a half
-        (0.4, 0.6, "most of the new raw errors sit at the clip", False),
-        (0.6, 0.4, "most of the familiar raw errors sit at the clip", False),
-        (0.5, 0.5, "most raw errors fall below it", True),  # a half is not most
-        (0.0, 0.0, "no raw error here reaches it, so it ranks every state", True),
-        (0.0, 0.01, "most raw errors fall below it", True),  # a few reach it
-    ],
-)
-def test_clip_effect_keeps_the_novelty_gap_where_most_errors_fall_below(
-    familiar, new, said, keeps
-):
-    """The start-state rule's criterion (chapter 8, departure 6): a clip that most
-    errors of either set reach makes their r^i a tie; one that none reaches still
-    ranks every state."""
-    text, ok = D.clip_effect(familiar, new, "raw")
-    assert text.startswith(said) and ok is keeps
-
-
-def test_novelty_contrast_says_what_the_numbers_show():
-    med = {"normalised": [0.08, 0.11, 3.5, 2.5], "raw": [7e-4, 1.1e-3, 3e-3, 7.4e-3]}
-    at = {"normalised": (0.035, 0.01), "raw": (0.0, 0.0)}
-    c = D.novelty_contrast(med, at, 0.8)
-    assert c["scripted"].startswith("On both inputs the scripted excursions")
-    assert "31 to 44 times the familiar one on normalised inputs" in c["scripted"]
-    assert "4.3 to 11 times on raw ones" in c["scripted"]
-    assert c["new"].startswith("Fresh exploration comes closer")
-    assert "1.4 times the familiar one on normalised inputs" in c["new"]
-    assert c["tail"] == (
-        "familiar transitions reach the clip more often than new ones on normalised "
-        "inputs (0.035 against 0.01), while neither familiar nor new transitions "
-        "reach it on raw inputs"
-    )
-    assert c["summary"].startswith("on both inputs the scripted excursions are")
-    assert "1.4 to 1.6 times the familiar one; and at η = 0.8, familiar" in c["summary"]
-    # a scripted set below fresh exploration; new transitions at the clip more often
-    med["raw"][2], at["raw"] = 1e-3, (0.1, 0.2)
-    c = D.novelty_contrast(med, at, 0.8)
-    assert c["scripted"].startswith("Only on normalised inputs are the scripted")
-    assert c["new"].startswith("Fresh exploration does not come closer")
-    assert c["tail"].endswith(
-        "new transitions reach it more often than familiar "
-        "ones on raw inputs (0.2 against 0.1)"
-    )
-    med["normalised"][3] = 0.05
-    assert D.novelty_contrast(med, at, 0.8)["summary"].startswith(
-        "on no input are the scripted excursions predicted worse"
-    )
-    with pytest.raises(ValueError, match="scripted"):
-        D.novelty_contrast({"raw": [1.0, 2.0]}, {"raw": (0.0, 0.0)}, 0.8)
 
 
 def test_pool_positions_read_each_stored_state_and_count_the_distinct_ones():

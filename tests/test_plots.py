@@ -1,5 +1,6 @@
 """Chapter 7's figures: ACDER's diagnostics one panel each, the learning curves' legend
-keyed, and where each seed's curve ends (so where the mean curve ends)."""
+keyed, and where each seed's curve ends (so where the mean curve ends); chapter 4's
+S-ICM errors against the clip eta."""
 
 import matplotlib
 import numpy as np
@@ -159,4 +160,50 @@ def test_chance_panel_zooms_to_low_curves_and_draws_the_chance_line():
     ax = fig.axes[0]
     assert ax.get_ylim() == pytest.approx((-0.05, 1.05))  # 1.08 would hide no threshold
     assert [t.get_text() for t in ax.texts] == ["dotted: chance, 0.66% (why)"]
+    plt.close(fig)
+
+
+def test_clip_histogram_shares_of_each_set_the_clipped_errors_in_the_last_bin():
+    """Chapter 4's histogram of r^i = clip(error, 0, eta): each set's bars are shares
+    (they sum to 1 however large the set), and every error at or above eta lands in
+    the last bin, whose share the title states."""
+    fam = np.array([[0.01, 0.02], [1.0, 2.0]])  # half of them at or above the clip
+    new = np.full(8, 0.01)
+    fig, ax = plt.subplots()
+    plots.clip_histogram(ax, fam, new, 0.8, "raw")
+    first, second = ax.containers  # one BarContainer per set
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == ["familiar", "new exploration"]
+    heights = [np.array([p.get_height() for p in c]) for c in (first, second)]
+    assert [h.sum() for h in heights] == pytest.approx([1.0, 1.0])
+    assert heights[0][-1] == pytest.approx(0.5) and heights[1][-1] == 0
+    assert first[-1].get_x() + first[-1].get_width() == pytest.approx(0.8)
+    assert first[0].get_x() == pytest.approx(0.01)  # the smallest error, < eta / 10
+    assert ax.get_xscale() == "log"
+    assert ax.get_title() == "share at the clip (the last bin): familiar 0.50, new 0.00"
+    assert "0.80" in ax.get_xlabel() and "'raw'" in ax.get_xlabel()
+    plt.close(fig)
+
+
+def test_clip_share_curves_a_style_per_input_and_the_paper_etas_dotted():
+    etas = np.geomspace(1e-3, 1.0, 5)
+    shares = {
+        "normalised": {"familiar": np.linspace(1, 0, 5), "new": np.linspace(1, 0.5, 5)},
+        "raw": {"familiar": np.zeros(5), "new": np.full(5, 0.1)},
+    }
+    fig, ax = plt.subplots()
+    plots.clip_share_curves(ax, etas, shares, marks=(0.05, 0.8))
+    curves = [ln for ln in ax.get_lines() if ln.get_linestyle() != ":"]
+    assert [ln.get_label() for ln in curves] == [
+        "normalised: familiar",
+        "normalised: new",
+        "raw: familiar",
+        "raw: new",
+    ]
+    assert [ln.get_linestyle() for ln in curves] == ["-", "-", "--", "--"]
+    np.testing.assert_allclose(curves[1].get_ydata(), shares["normalised"]["new"])
+    np.testing.assert_allclose(curves[1].get_xdata(), etas)
+    dotted = [ln.get_xdata()[0] for ln in ax.get_lines() if ln.get_linestyle() == ":"]
+    assert dotted == [0.05, 0.8]
+    assert ax.get_xscale() == "log" and ax.get_legend() is not None
     plt.close(fig)

@@ -1,0 +1,212 @@
+"""Chapter 4's reading of familiar against unseen transitions (acder_lite.novelty):
+S-ICM's errors on whole episodes, the sets and their shares at the clip, and the
+sentences that say what they show, from numbers worked by hand. The figures of them:
+test_plots.py."""
+
+import numpy as np
+import pytest
+import torch
+
+from acder_lite import novelty as N
+from acder_lite.trainer import Trainer
+
+from conftest import tiny_config
+
+
+def _push_trainer(**kw):
+    return Trainer(tiny_config(env="FetchPush-v4", method="acder", **kw))
+
+
+@pytest.mark.parametrize("sicm_input", ["normalised", "raw"])
+def test_episode_errors_are_eq4_of_each_step(sicm_input):
+    from acder_lite.rewards import intrinsic_reward
+    from acder_lite.rollout import run_episodes
+
+    tr = _push_trainer(sicm_input=sicm_input)
+    ep = run_episodes(tr.envs, tr.explore_act, tr.T)
+    err = N.episode_errors(tr, ep)
+    assert err.shape == (len(tr.envs), tr.T)
+    clipped = N.episode_errors(tr, ep, eta=tr.cfg.eta)
+    np.testing.assert_allclose(clipped, np.minimum(err, tr.cfg.eta))
+    # one step by hand, through the trainer's own inputs
+    b = dict(o=ep["o"][:1, 3], o2=ep["o"][:1, 4], g=ep["g"][:1, 3], u=ep["u"][:1, 3])
+    tb = tr.batch_tensors(b)
+    s, s2 = tr.curiosity_inputs(b, tb)
+    with torch.no_grad():
+        want = intrinsic_reward(tr.curiosity(s, tb["u"]).numpy(), s2.numpy(), np.inf)
+    np.testing.assert_allclose(err[0, 3], want[0], rtol=1e-6)
+
+
+@pytest.mark.parametrize(
+    "familiar, new, said, keeps",
+    [
+        (0.6, 0.9, "most raw errors sit at the clip", False),  # both above a half
+        (0.4, 0.6, "most of the new raw errors sit at the clip", False),
+        (0.6, 0.4, "most of the familiar raw errors sit at the clip", False),
+        (0.5, 0.5, "most raw errors fall below it", True),  # a half is not most
+        (0.0, 0.0, "no raw error here reaches it, so it ranks every state", True),
+        (0.0, 0.01, "most raw errors fall below it", True),  # a few reach it
+    ],
+)
+def test_clip_effect_keeps_the_novelty_gap_where_most_errors_fall_below(
+    familiar, new, said, keeps
+):
+    """The start-state rule's criterion (chapter 8, departure 6): a clip that most
+    errors of either set reach makes their r^i a tie; one that none reaches still
+    ranks every state."""
+    text, ok = N.clip_effect(familiar, new, "raw")
+    assert text.startswith(said) and ok is keeps
+
+
+def test_novelty_contrast_says_what_the_numbers_show():
+    med = {"normalised": [0.08, 0.11, 3.5, 2.5], "raw": [7e-4, 1.1e-3, 3e-3, 7.4e-3]}
+    at = {"normalised": (0.035, 0.01), "raw": (0.0, 0.0)}
+    c = N.novelty_contrast(med, at, 0.8)
+    assert c["scripted"].startswith("On both inputs the scripted excursions")
+    assert "31 to 44 times the familiar one on normalised inputs" in c["scripted"]
+    assert "4.3 to 11 times on raw ones" in c["scripted"]
+    assert c["new"].startswith("Fresh exploration comes closer")
+    assert "1.4 times the familiar one on normalised inputs" in c["new"]
+    assert c["tail"] == (
+        "familiar transitions reach the clip more often than new ones on normalised "
+        "inputs (0.035 against 0.01), while neither familiar nor new transitions "
+        "reach it on raw inputs"
+    )
+    assert c["summary"].startswith("on both inputs the scripted excursions are")
+    assert "1.4 to 1.6 times the familiar one; and at η = 0.8, familiar" in c["summary"]
+    # a scripted set below fresh exploration; new transitions at the clip more often
+    med["raw"][2], at["raw"] = 1e-3, (0.1, 0.2)
+    c = N.novelty_contrast(med, at, 0.8)
+    assert c["scripted"].startswith("Only on normalised inputs are the scripted")
+    assert c["new"].startswith("Fresh exploration does not come closer")
+    assert c["tail"].endswith(
+        "new transitions reach it more often than familiar "
+        "ones on raw inputs (0.2 against 0.1)"
+    )
+    med["normalised"][3] = 0.05
+    assert N.novelty_contrast(med, at, 0.8)["summary"].startswith(
+        "on no input are the scripted excursions predicted worse"
+    )
+    with pytest.raises(ValueError, match="scripted"):
+        N.novelty_contrast({"raw": [1.0, 2.0]}, {"raw": (0.0, 0.0)}, 0.8)
+
+
+def test_episode_errors_need_sicm():
+    from acder_lite.config import ConfigError
+    from acder_lite.rollout import run_episodes
+
+    tr = Trainer(tiny_config(method="her"))
+    ep = run_episodes(tr.envs, tr.explore_act, tr.T)
+    with pytest.raises(ConfigError, match="no S-ICM"):
+        N.episode_errors(tr, ep)
+
+
+def test_error_sets_put_the_buffers_first_episodes_first_then_the_given_ones():
+    from acder_lite.rollout import run_episodes
+
+    trs = {inp: _push_trainer(sicm_input=inp) for inp in ("normalised", "raw")}
+    for t in trs.values():
+        t.train_cycle()  # a filled buffer, a trained model
+    tr = trs["raw"]
+    eps = {
+        "new exploration": run_episodes(tr.envs, tr.explore_act, tr.T),
+        "still": run_episodes(tr.envs, lambda o, g: np.zeros((len(o), 4)), tr.T),
+    }
+    sets = N.error_sets(trs, eps, familiar=2)
+    assert list(sets) == ["normalised", "raw"]
+    for inp, t in trs.items():
+        assert list(sets[inp]) == [N.FAMILIAR, "new exploration", "still"]
+        assert sets[inp][N.FAMILIAR].shape == (2, t.T)
+        buf = t.buffer.arrays()
+        own = {k: buf[k][:2] for k in ("o", "g", "u")}  # the first two stored
+        np.testing.assert_array_equal(sets[inp][N.FAMILIAR], N.episode_errors(t, own))
+        np.testing.assert_array_equal(
+            sets[inp]["still"], N.episode_errors(t, eps["still"])
+        )
+    # the same episodes, seen through each model's own input: different errors
+    assert not np.allclose(sets["raw"]["still"], sets["normalised"]["still"])
+
+
+def sets_by_hand():
+    return {
+        "normalised": {
+            N.FAMILIAR: np.array([[0.01, 0.05], [0.5, 0.9]]),
+            N.NEW: np.array([[0.8, 1.0], [2.0, 0.02]]),
+            "scripted": np.array([[3.0, 4.0], [5.0, 6.0]]),
+        },
+        "raw": {
+            N.FAMILIAR: np.array([[1e-3, 2e-3], [3e-3, 4e-3]]),
+            N.NEW: np.array([[0.06, 1e-3], [2e-3, 3e-3]]),
+            "scripted": np.array([[0.1, 0.2], [0.3, 0.4]]),
+        },
+    }
+
+
+def test_medians_and_shares_at_the_clip_count_errors_at_or_above_eta():
+    sets = sets_by_hand()
+    med = N.medians(sets)
+    assert list(med) == ["normalised", "raw"]
+    assert med["normalised"] == pytest.approx([0.275, 0.9, 4.5])
+    assert med["raw"] == pytest.approx([0.0025, 0.0025, 0.25])
+    at = N.shares_at(sets, [0.05, 0.8])
+    # 0.05 and 0.8 themselves count: Eq. 4 pays them the full eta
+    np.testing.assert_array_equal(at["normalised"][N.FAMILIAR], [0.75, 0.25])
+    np.testing.assert_array_equal(at["normalised"][N.NEW], [0.75, 0.75])
+    np.testing.assert_array_equal(at["raw"]["scripted"], [1.0, 0.0])
+    kept = N.shares_at(sets, [0.8], names=(N.NEW, N.FAMILIAR))
+    assert [list(s) for s in kept.values()] == [[N.NEW, N.FAMILIAR]] * 2
+
+
+def test_scale_words_span_each_inputs_medians_and_mark_the_default():
+    med = {"normalised": [0.174, 0.298, 1.07, 2.66], "raw": [0.00693, 0.163, 0.011]}
+    assert N.scale_words(med, "raw") == (
+        "0.17 to 2.7 on normalised inputs and 0.0069 to 0.16 on raw inputs "
+        "(the default)"
+    )
+    assert "(the default)" not in N.scale_words(med, "sincos")
+
+
+def test_clip_shares_table_and_readings_of_the_paper_etas():
+    sat = N.clip_shares(sets_by_hand(), (0.05, 0.8))
+    assert list(sat) == [
+        (inp, k, x) for inp in ("normalised", "raw") for k in ("fam", "new")
+        for x in (0.05, 0.8)
+    ]  # fmt: skip
+    assert sat["normalised", "new", 0.8] == 0.75 and sat["raw", "new", 0.05] == 0.25
+    head, rows = N.clip_table(sat)
+    assert head == [
+        "share at the clip",
+        "familiar, eta = 0.05",
+        "new, eta = 0.05",
+        "familiar, eta = 0.8",
+        "new, eta = 0.8",
+    ]
+    assert rows == [
+        ["normalised", "0.75", "0.75", "0.25", "0.75"],
+        ["raw", "0.00", "0.25", "0.00", "0.00"],
+    ]
+    readings, keeps = N.clip_readings(sat)
+    assert list(readings) == [0.05, 0.8]
+    assert readings[0.8] == (
+        "most of the new normalised errors sit at the clip, where they tie, while no "
+        "raw error here reaches it, so it ranks every state and only bounds outliers "
+        "not seen here"
+    )
+    assert keeps == {"normalised": False, "raw": True}
+    sat["raw", "new", 0.05] = 0.6  # raw fails at 0.05 only: one eta is enough
+    assert N.clip_readings(sat)[1] == {"normalised": False, "raw": False}
+
+
+@pytest.mark.parametrize(
+    "keeps, said",
+    [
+        ({"normalised": True, "raw": True}, "Both of the paper's values keep the "
+         "novelty gap on either input"),
+        ({"normalised": False, "raw": True}, "Both of the paper's values keep the "
+         "novelty gap only on raw inputs"),
+        ({"normalised": False, "raw": False}, "On neither input do both of the "
+         "paper's values keep the novelty gap"),
+    ],
+)  # fmt: skip
+def test_eta_verdict(keeps, said):
+    assert N.eta_verdict(keeps) == said
