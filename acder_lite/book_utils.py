@@ -191,3 +191,31 @@ def random_episode_stats(
         for env in envs:
             env.close()
     return {key: np.concatenate([p[key] for p in per]) for key in per[0]}
+
+
+def success_rank(push: float, reach: float) -> str:
+    """How the random policy's success rates (shares) rank Push against Reach, as a
+    sentence opening. Trap: compared as the book prints them (`percent`), so two rates
+    that print alike are a tie even where the floats differ."""
+    if percent(push) == percent(reach):
+        return "The success rates do not even tell Push from Reach"
+    if push > reach:
+        return "The success rates even rank Push above Reach"
+    return "The success rates rank Reach above Push"
+
+
+def live_ended(ends: dict, n_eval: int, patience: int) -> str:
+    """How chapter 7's two live runs ended, in words: `ends` maps a method to (its
+    training episodes, the trainer's `stop_reason` if it stopped before its budget,
+    else None). Where the runs evaluated fewer than `patience` times (ACDER_FAST's
+    budget) it adds that the stop rule could not fire."""
+    stopped = [
+        f"{m} stopped early, after {n} episodes ({why})"
+        for m, (n, why) in ends.items()
+        if why is not None
+    ]
+    most = max(n for n, _ in ends.values())
+    text = "; ".join(stopped) or f"both ran the full {most} episodes"
+    if n_eval < patience:
+        text += f" (each run's {n_eval} evaluations: the stop rule needs {patience})"
+    return text

@@ -7,7 +7,9 @@ stands in for it (`STAND_IN`), and the simplified state's (experiments/deploy/).
 From those folders and what `runs.read_run` read of them (progress.csv, config.json,
 done.json) this module writes the chapter's words: `full_state_sentence`,
 `training_rows` (a table under `TRAINING_HEADER`, a row a policy, from
-`training_facts`) and `lengths_sentence`.
+`training_facts`) and `lengths_sentence`; for its scene of a perturbed rollout and the
+export, `scene_label` picks the policy, `scene_sentence` says how its episode went and
+`policy_clips` reads the clips the export bakes in.
 
 Traps: each run ended by its own stop rule or budget, so a task's two columns need not
 have trained as long, and a difference between them is then one of training too
@@ -184,3 +186,36 @@ def lengths_sentence(env: str, runs: dict[str, dict | None]) -> str:
         f"The {task} policies did not train as long: {each}, so a difference between "
         "their columns is one of training as well as of state."
     )
+
+
+SCENE_ORDER = ("simplified state", "full state")
+"""The columns chapter 10's scene takes its policy from, the first trained one: the
+paper deployed simplified-state policies."""
+
+
+def scene_label(columns: dict[str, str | None]) -> str | None:
+    """The column label of the policy chapter 10's scene shows, from one task's
+    `policies` entry ({column label: run folder or None}): the first of `SCENE_ORDER`
+    with a trained run, or None (no scene)."""
+    return next((k for k in SCENE_ORDER if columns.get(k)), None)
+
+
+def scene_sentence(env: str, label: str | None, success: bool | None) -> str:
+    """Chapter 10's sentence under its scene of task `env`: whether the policy of
+    column `label` (`scene_label`; None: there is no scene) succeeds in the episode
+    shown."""
+    if label is None:
+        return (
+            f"No {task_label(env)} policy has finished training, so there is no scene."
+        )
+    verb = "succeeds" if success else "fails"
+    return f"The {label.replace(' ', '-')} policy {verb} in this episode."
+
+
+def policy_clips(pol: dict | None) -> tuple[float, float]:
+    """The clips an export bakes in, (observation clip, normaliser clip), as a policy
+    dict (`robust.load_policy`) records them; for None (no policy trained yet), the
+    training defaults (`Config.clip_obs`, `Config.norm_clip`)."""
+    if pol is None:
+        return Config().clip_obs, Config().norm_clip
+    return pol["clip_obs"], pol["norm"]["clip"]

@@ -11,7 +11,10 @@ lays out. The sentences the chapter glues say what the numbers show: `scale_word
 span of the medians, `novelty_contrast` familiar against fresh and scripted,
 `clip_effect` and `clip_readings` what each clip does to an input's errors by the
 start-state rule's criterion, and `eta_verdict` whether both of the paper's values keep
-the novelty gap. Nothing is trained: the models only predict.
+the novelty gap. Around them: `loss_path` says where each model's training loss went,
+`ratio_table` lays the medians out over the familiar one, and `rollout_halves` reads
+one rollout's errors while it explores and while it sweeps away. Nothing is trained:
+the models only predict.
 
 Traps: the error is in the input's own units (squared standard deviations of the buffer
 on normalised inputs, squared metres and radians on raw ones), so only ratios compare
@@ -322,3 +325,39 @@ def eta_verdict(keeps: dict[str, bool]) -> str:
             f"Both of the paper's values keep the novelty gap only on {good[0]} inputs"
         )
     return "On neither input do both of the paper's values keep the novelty gap"
+
+
+def loss_path(rows: dict[str, list[dict]]) -> str:
+    """Where each S-ICM input's training loss went, in words: "0.52 to 0.21 on
+    normalised and ...", from the first to the last row of `rows` (per input, the
+    rows `Trainer.train` returned, each with its `curiosity_loss`)."""
+    ends = {
+        i: (r[0]["curiosity_loss"], r[-1]["curiosity_loss"]) for i, r in rows.items()
+    }
+    return " and ".join(f"{a:.3g} to {b:.3g} on {i}" for i, (a, b) in ends.items())
+
+
+def ratio_table(medians: dict[str, list[float]], names):
+    """`medians`' table for `table.to_html`: (header, rows), a row per input, each
+    set's median over the familiar one's (the first) to three significant digits, so
+    that inputs of other units compare (1: predicted as well as the familiar set);
+    `names` are the sets' names, in the medians' order."""
+    head = ["median / familiar median"] + list(names)
+    rows = [[inp] + [f"{x / m[0]:.3g}" for x in m] for inp, m in medians.items()]
+    return head, rows
+
+
+def rollout_halves(
+    errors: dict[str, np.ndarray], etas: dict[str, float], explore: int, turn: int
+) -> dict[tuple[str, str], tuple[float, float]]:
+    """One rollout's errors (per input, one a step) read in two halves: "explore", its
+    first `explore` steps, and "sweep", the steps after those and the `turn` that
+    follow them (the sweep without its turn). Returns {(input, half): (median error,
+    share of steps at or above the input's clip `etas[input]`)}, per input explore
+    first: the share Eq. 4 pays the full eta."""
+    out = {}
+    for inp, e in errors.items():
+        e = np.asarray(e)
+        for half, s in (("explore", e[:explore]), ("sweep", e[explore + turn :])):
+            out[inp, half] = (float(np.median(s)), float(np.mean(s >= etas[inp])))
+    return out

@@ -1,5 +1,5 @@
-"""The book's figures of runs: mean curves over seeds (Fig.
-4 and 5) as Table I reads them.
+"""The book's figures: mean curves over seeds (Fig. 4 and 5) as Table I reads them, and
+the chapters' own figures.
 
 Every curve is `report.mean_curve` of the runs of one (task, folder name), on an axis of
 epochs with Table I's unit (400 episodes an epoch) on the top axis: the mean where every
@@ -9,7 +9,10 @@ Missing runs come back in the returned status ("not run yet"), never as an error
 `seed_ends` says where each seed's curve ends; `plot_diagnostics` draws ACDER's
 diagnostics of one run; `chance_panel` draws a task's curves beside the test success
 no learning is needed for (chapter 9's chance level). `clip_histogram` and
-`clip_share_curves` draw chapter 4's S-ICM errors against the clip eta (`novelty`).
+`clip_share_curves` draw chapter 4's S-ICM errors against the clip eta (`novelty`), as
+`curiosity_losses`, `error_boxes` and `rollout_errors` draw its losses, error spreads
+and one rollout's errors; `factor_arrows` (chapter 5) and `alpha_point` (chapter 6)
+draw the goal-oriented factor and the start-state share alpha.
 
 The figures are drawn for the book's text column: `WIDTH` inches wide at `DPI`, text at
 least `FONT` points, and a legend of learning curves under its axes (`legend_below`),
@@ -507,3 +510,83 @@ def clip_share_curves(ax, etas, shares: dict[str, dict], marks=(0.05, 0.8)):
     ax.set_xlabel(r"the clip $\eta$")
     ax.set_ylabel("share at the clip")
     legend_below(ax)
+
+
+def curiosity_losses(ax, rows: dict[str, list[dict]]):
+    """S-ICM's training loss (Eq. 8) against the cycle, on a log axis, a curve per
+    S-ICM input of `rows` (per input, the rows `Trainer.train` returned, each with its
+    `cycle` and `curiosity_loss`); the legend, titled by the setting, right of the
+    axes."""
+    for inp, r in rows.items():
+        cycles = [x["cycle"] for x in r]
+        ax.semilogy(cycles, [x["curiosity_loss"] for x in r], "o-", label=inp)
+    ax.set_xlabel("cycle")
+    ax.set_ylabel("S-ICM loss $L_F$ (Eq. 8)")
+    ax.legend(title="sicm_input", fontsize=FONT, title_fontsize=FONT,
+              loc="upper left", bbox_to_anchor=(1.01, 1))  # fmt: skip
+
+
+def error_boxes(axes, sets: dict[str, dict[str, np.ndarray]], etas: dict[str, float]):
+    """Chapter 4's S-ICM errors (`novelty.error_sets`), an axes of the column `axes`
+    per input, a box per set (no fliers: the errors span decades) on a log axis, the
+    input's clip `etas[input]` dashed; the legend on the first axes, the sets' names
+    under the last (the axes share x)."""
+    for ax, (inp, s) in zip(axes, sets.items()):
+        ax.boxplot([e.ravel() for e in s.values()], showfliers=False)
+        ax.axhline(etas[inp], color="gray", ls="--", label=r"$\eta$")
+        ax.set_yscale("log")
+        ax.set_ylabel(r"$\frac{1}{2}\|F(s,a) - s'\|^2$")
+        ax.set_title(f"sicm_input = {inp!r}", fontsize=10, loc="left")
+    axes[0].legend(fontsize=FONT, loc="upper left", bbox_to_anchor=(1.01, 1))
+    names = list(next(iter(sets.values())))
+    axes[-1].set_xticks(range(1, len(names) + 1), names, fontsize=FONT)
+
+
+def rollout_errors(
+    axes, errors: dict[str, np.ndarray], etas: dict[str, float], explore
+):
+    """One rollout's S-ICM error and its reward r^i (Eq. 4, clipped to the input's
+    `etas[input]`, dotted) against the step (from 1), on log axes, an axes of the
+    column `axes` per input of `errors` (one error a step); a dashed line after its
+    first `explore` steps marks where the sweep starts (chapter 4's rollout). The
+    legend goes under the last axes (`legend_below`)."""
+    for ax, (inp, e) in zip(axes, errors.items()):
+        steps, eta = np.arange(1, len(e) + 1), etas[inp]
+        ax.semilogy(steps, e, label="error")
+        ax.semilogy(steps, np.minimum(e, eta), label=r"$r^i$ (Eq. 4, clipped)")
+        ax.axhline(eta, color="gray", ls=":", label=r"$\eta$")
+        ax.axvline(explore + 0.5, color="gray", ls="--", label="sweep starts")
+        ax.set_title(f"sicm_input = {inp!r}", fontsize=10, loc="left")
+    axes[-1].set_xlabel("step")
+    legend_below(axes[-1], ncol=4)
+
+
+def factor_arrows(ax, goal, action, lam: float, r_fail: float):
+    """Chapter 5's widget: from the gripper at the origin, the direction to `goal`
+    (red) and the action's xy part (blue) on a square of side 2, titled with the
+    action's factor `lam` (Eq. 6) and the reward `r_fail` a failed step then earns."""
+    ax.arrow(0, 0, goal[0] * 8, 0, color="r", width=0.01, label="to goal")
+    xy = action[0] * 0.8, action[1] * 0.8
+    ax.arrow(0, 0, *xy, color="b", width=0.01, label="action (xy)")
+    ax.set_xlim(-1, 1)
+    ax.set_ylim(-1, 1)
+    ax.set_aspect("equal")
+    title = rf"$\lambda_r$ = {lam:.3f}; a failed step earns {r_fail:.3f}"
+    ax.set_title(title, fontsize=10, pad=10)
+    ax.legend(loc="lower left", fontsize=9)
+
+
+def alpha_point(ax, alpha0: float, success_rate: float):
+    """Chapter 6's widget: Eq. 9's alpha (`start_states.novel_start_ratio`) against
+    the test success rate for `alpha0`, a red dot at `success_rate`, whose alpha the
+    title gives."""
+    from .start_states import novel_start_ratio
+
+    s = np.linspace(0, 1, 101)
+    ax.plot(s, [novel_start_ratio(x, alpha0) for x in s])
+    alpha = novel_start_ratio(success_rate, alpha0)
+    ax.plot([success_rate], [alpha], "ro")
+    ax.set_xlabel("test success rate")
+    ax.set_ylabel(r"$\alpha$ (share of novel starts)")
+    ax.set_ylim(-0.05, 1.05)
+    ax.set_title(rf"$\alpha$ = {alpha:.3f}")

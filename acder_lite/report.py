@@ -266,6 +266,17 @@ def seed_curve(
     return SeedCurve(x, y, carried, ended)
 
 
+def made_up_seed(values: list[float], ended: str | None, budget: float = 12):
+    """A made-up seed's curve (`seed_curve`) from its test success at epochs 1, 2, ...
+    (400 episodes an epoch), as chapter 8 draws the reading of Table I; a seed
+    `ended` by the "stop rule" is carried forward to `budget` epochs."""
+    rows = [
+        dict(epoch=float(e), episodes=400.0 * e, test_success=v)
+        for e, v in enumerate(values, 1)
+    ]
+    return seed_curve(rows, ended, budget)
+
+
 def on_grid(curves: list[SeedCurve]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The seeds on one axis, the union of their points: (x, Y, C), Y[i] seed i linearly
     interpolated inside its own range and NaN outside it, C[i] True where that value is

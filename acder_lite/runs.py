@@ -440,3 +440,16 @@ def planned_cells(
         if cell.hold and not entry["hold"]:
             entry["hold"] = cell.hold
     return out
+
+
+def load_folder(path: str | Path, warn=stderr_line) -> list[dict]:
+    """`load_runs` of `path`, or [] where there is no such folder (an experiment not
+    run in this checkout): the book reads what is there."""
+    path = Path(path)
+    return load_runs(path, warn=warn) if path.is_dir() else []
+
+
+def planned_folder(plan_path: str | Path, root: str | Path) -> dict:
+    """`planned_cells` of the run folders under `root`, or {} where there is no plan
+    file at `plan_path` (then nothing counts as planned)."""
+    return planned_cells(plan_path, root) if Path(plan_path).exists() else {}

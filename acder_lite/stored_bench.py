@@ -5,8 +5,9 @@ file that `python -m acder_lite robust RUN --json FILE` wrote for the same polic
 (chapter 10 reads each simplified-state run's `robust.json`). The same policy, seed and
 simulator give the same outcomes, trial for trial, so a differing row is a break of
 determinism, or another CPU kind (float32 kernels differ between instruction sets,
-results/README.md). `stored_rows` makes the book's table of the checks, a row a task
-(`STORED_HEADER`).
+results/README.md). `check_stored` compares every task's simplified-state bench with
+the `robust.json` of its run folder, `stored_rows` makes the book's table of the
+checks, a row a task (`STORED_HEADER`), and `scope_sentence` says what they covered.
 
 Traps: trial i starts from the env seeded seed + i whatever the trial count, so a bench
 of fewer trials is compared on the stored one's first trials; but a noise level above 0
@@ -19,6 +20,9 @@ entry are not compared at all.
 """
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 from .perturb import KNOBS, quantity, unit_of
 from .table import task_label
@@ -182,3 +186,33 @@ def _levels(keys: list[tuple]) -> str:
             for k, vs in by_knob.items()
         ]
     )
+
+
+def check_stored(root, policies: dict, bench: dict, label="simplified state") -> dict:
+    """`compare_stored` for every task of `policies` ({task: {column label: run folder
+    relative to `root`, or None}}, as `deploy_report.policies` gives it): the bench of
+    its `label` column run here (`bench`: {(task, label): `run_bench` result}, as
+    `robust.bench_policies` returns it) against the `robust.json` stored in that
+    column's run folder. A task without the folder, the file or the live bench gets
+    `compare_stored`'s answer for a missing side. Returns {task: result}."""
+    checks = {}
+    for env, cols in policies.items():
+        folder = cols.get(label)
+        file = Path(root) / folder / "robust.json" if folder else None
+        stored = json.loads(file.read_text()) if file and file.is_file() else None
+        checks[env] = compare_stored(bench.get((env, label)), stored)
+    return checks
+
+
+def scope_sentence(checks: dict[str, dict], trials: int) -> str:
+    """What `check_stored`'s `checks` compared, in one sentence for the book: every
+    row both benches ran, or, where a row was skipped (a shorter bench's noise rows),
+    that this build ran `trials` trials a level (`ACDER_FAST`) and that the full bench
+    compares them."""
+    if any(c["skipped"] for c in checks.values()):
+        return (
+            f"This build ran {trials} trials a level (`ACDER_FAST`): the rows with "
+            "noise are compared only when the chapter runs the full bench "
+            "(`make book`)."
+        )
+    return "Every row that both benches ran is compared, on every trial."

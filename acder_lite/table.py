@@ -113,6 +113,21 @@ def protocol_rows(envs=("FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4")
     return PROTOCOL_HEADER, rows
 
 
+def switch_rows(methods: list[str]) -> tuple[tuple, list[tuple]]:
+    """(header, rows): each of `methods` with its switches (`config.METHODS`, in the
+    order of ACDER's), a bool as yes / no and a choice ('sicm', 'none') as it is;
+    names in backticks."""
+    from .config import METHODS
+
+    keys = list(METHODS["acder"])
+
+    def shown(v):
+        return ("yes" if v else "no") if isinstance(v, bool) else v
+
+    rows = [(f"`{m}`", *(shown(METHODS[m][k]) for k in keys)) for m in methods]
+    return ("method", *(f"`{k}`" for k in keys)), rows
+
+
 def episodes(x: float | None) -> str:
     """Episodes as '11,600'; inf as 'beyond budget', None as '–'."""
     if x is None:

@@ -68,3 +68,30 @@ def test_random_episode_stats_draws_from_the_callers_generator():
     assert u.shape == (3, 4) and np.abs(u).max() <= 1.0
     with pytest.raises(ValueError, match="workers <= episodes"):
         random_episode_stats("FetchReach-v4", 1, rng, workers=2)
+
+
+def test_success_rank_ties_rates_that_print_alike():
+    from acder_lite.book_utils import success_rank
+
+    # 2.0% and 2.00004% print alike: a tie, though push > reach as floats
+    assert success_rank(0.0200004, 0.02) == (
+        "The success rates do not even tell Push from Reach"
+    )
+    assert success_rank(0.03, 0.02) == "The success rates even rank Push above Reach"
+    assert success_rank(0.02, 0.03) == "The success rates rank Reach above Push"
+
+
+def test_live_ended_names_the_runs_that_stopped_and_a_stop_rule_that_could_not():
+    from acder_lite.book_utils import live_ended
+
+    both = {"acder": (40, None), "her": (36, None)}
+    assert live_ended(both, 5, 5) == "both ran the full 40 episodes"
+    assert live_ended(both, 4, 5) == (
+        "both ran the full 40 episodes (each run's 4 evaluations: the stop rule"
+        " needs 5)"
+    )
+    ends = {"acder": (24, "success held"), "her": (40, "budget")}
+    assert live_ended(ends, 12, 5) == (
+        "acder stopped early, after 24 episodes (success held); her stopped early,"
+        " after 40 episodes (budget)"
+    )

@@ -128,3 +128,29 @@ def test_policies_take_a_finished_run_and_the_stand_in_until_the_grids_finishes(
     assert len(lines) == 6
     assert lines[0] == f"{R:22s} {'full state':17s} results/{R}/acder/seed0"
     assert lines[3] == f"{P:22s} simplified state  not trained yet"
+
+
+def test_the_scene_takes_the_simplified_policy_else_the_full_one_and_says_how_it_went():
+    from acder_lite.deploy_report import scene_label, scene_sentence
+
+    both = {"full state": "results/x", "simplified state": "experiments/deploy/x"}
+    assert scene_label(both) == "simplified state"
+    assert scene_label(dict(both, **{"simplified state": None})) == "full state"
+    assert scene_label({"full state": None, "simplified state": None}) is None
+    assert scene_sentence("FetchPush-v4", "simplified state", True) == (
+        "The simplified-state policy succeeds in this episode."
+    )
+    assert scene_sentence("FetchPush-v4", "full state", False) == (
+        "The full-state policy fails in this episode."
+    )
+    assert scene_sentence("FetchPush-v4", None, None) == (
+        "No Push policy has finished training, so there is no scene."
+    )
+
+
+def test_policy_clips_as_the_policy_records_them_else_the_training_defaults():
+    from acder_lite.config import Config
+    from acder_lite.deploy_report import policy_clips
+
+    assert policy_clips(dict(clip_obs=5.0, norm=dict(clip=3.0))) == (5.0, 3.0)
+    assert policy_clips(None) == (Config().clip_obs, Config().norm_clip)

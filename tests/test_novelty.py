@@ -210,3 +210,41 @@ def test_clip_shares_table_and_readings_of_the_paper_etas():
 )  # fmt: skip
 def test_eta_verdict(keeps, said):
     assert N.eta_verdict(keeps) == said
+
+
+def test_loss_path_from_each_inputs_first_row_to_its_last():
+    rows = {
+        "normalised": [
+            dict(curiosity_loss=0.5234),
+            dict(curiosity_loss=0.9),  # a middle row says nothing
+            dict(curiosity_loss=0.01234),
+        ],
+        "raw": [dict(curiosity_loss=2e-4), dict(curiosity_loss=3e-5)],
+    }
+    assert N.loss_path(rows) == (
+        "0.523 to 0.0123 on normalised and 0.0002 to 3e-05 on raw"
+    )
+
+
+def test_ratio_table_puts_each_median_over_the_familiar_one():
+    med = {"normalised": [0.2, 0.3, 2.0], "raw": [0.004, 0.004, 0.5]}
+    head, rows = N.ratio_table(med, [N.FAMILIAR, N.NEW, "scripted"])
+    assert head == ["median / familiar median", N.FAMILIAR, N.NEW, "scripted"]
+    assert rows == [["normalised", "1", "1.5", "10"], ["raw", "1", "1", "125"]]
+
+
+def test_rollout_halves_leave_out_the_turn_and_count_errors_at_each_inputs_eta():
+    e = np.array([0.1, 0.2, 0.9, 5.0, 5.0, 0.8, 0.7, 2.0])  # explore 3, turn 2, sweep
+    got = N.rollout_halves(
+        {"raw": e, "normalised": e}, {"raw": 0.8, "normalised": 0.05}, 3, 2
+    )
+    assert list(got) == [
+        ("raw", "explore"),
+        ("raw", "sweep"),
+        ("normalised", "explore"),
+        ("normalised", "sweep"),
+    ]
+    assert got["raw", "explore"] == pytest.approx((0.2, 1 / 3))
+    # 0.8 itself is at the clip: Eq. 4 pays it the full eta
+    assert got["raw", "sweep"] == pytest.approx((0.8, 2 / 3))
+    assert got["normalised", "sweep"] == pytest.approx((0.8, 1.0))

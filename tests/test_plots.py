@@ -207,3 +207,82 @@ def test_clip_share_curves_a_style_per_input_and_the_paper_etas_dotted():
     assert dotted == [0.05, 0.8]
     assert ax.get_xscale() == "log" and ax.get_legend() is not None
     plt.close(fig)
+
+
+def test_factor_arrows_titles_the_factor_and_the_failed_steps_reward():
+    fig, ax = plt.subplots()
+    plots.factor_arrows(
+        ax, np.array([0.1, 0, 0]), np.array([0, 1.0, 0, 0]), 1.25, -1.25
+    )
+    assert ax.get_title() == r"$\lambda_r$ = 1.250; a failed step earns -1.250"
+    assert ax.get_xlim() == (-1, 1) and ax.get_ylim() == (-1, 1)
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels == ["to goal", "action (xy)"]
+    plt.close(fig)
+
+
+def test_alpha_point_marks_eq_9_at_the_success_rate():
+    from acder_lite.start_states import novel_start_ratio
+
+    fig, ax = plt.subplots()
+    plots.alpha_point(ax, 0.7, 0.5)
+    curve, dot = ax.get_lines()
+    assert np.allclose(curve.get_ydata()[[0, -1]], [0.7 - 0.5 / (10 * np.e), 0.2])
+    assert dot.get_ydata()[0] == novel_start_ratio(0.5, 0.7)
+    assert ax.get_title() == rf"$\alpha$ = {novel_start_ratio(0.5, 0.7):.3f}"
+    plt.close(fig)
+
+
+def test_curiosity_losses_a_log_curve_per_input_the_legend_titled_by_the_setting():
+    rows = {
+        "normalised": [
+            dict(cycle=1, curiosity_loss=0.5),
+            dict(cycle=2, curiosity_loss=0.2),
+        ],
+        "raw": [dict(cycle=1, curiosity_loss=1e-3), dict(cycle=2, curiosity_loss=4e-4)],
+    }
+    fig, ax = plt.subplots()
+    plots.curiosity_losses(ax, rows)
+    lines = ax.get_lines()
+    assert [ln.get_label() for ln in lines] == ["normalised", "raw"]
+    np.testing.assert_allclose(lines[1].get_xdata(), [1, 2])
+    np.testing.assert_allclose(lines[1].get_ydata(), [1e-3, 4e-4])
+    assert ax.get_yscale() == "log" and "Eq. 8" in ax.get_ylabel()
+    assert ax.get_legend().get_title().get_text() == "sicm_input"
+    plt.close(fig)
+
+
+def test_error_boxes_a_panel_per_input_its_eta_dashed_the_sets_named_below():
+    sets = {
+        "normalised": {"familiar": np.array([[0.1, 0.2], [0.3, 0.4]]),
+                       "new": np.array([1.0, 2.0, 3.0])},
+        "raw": {"familiar": np.array([1e-3, 2e-3]), "new": np.array([0.1, 0.2])},
+    }  # fmt: skip
+    fig, axes = plt.subplots(2, 1, sharex=True)
+    plots.error_boxes(axes, sets, {"normalised": 0.8, "raw": 0.05})
+    for ax, eta in zip(axes, (0.8, 0.05)):
+        dashed = [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"]
+        assert [tuple(ln.get_ydata()) for ln in dashed] == [(eta, eta)]
+        assert ax.get_yscale() == "log"
+    flat = [tuple(ln.get_ydata()) for ln in axes[0].get_lines()]
+    assert (0.25, 0.25) in flat and (2.0, 2.0) in flat  # each set's median, raveled
+    assert axes[1].get_title(loc="left") == "sicm_input = 'raw'"
+    assert [t.get_text() for t in axes[1].get_xticklabels()] == ["familiar", "new"]
+    assert axes[0].get_legend() is not None and axes[1].get_legend() is None
+    plt.close(fig)
+
+
+def test_rollout_errors_the_reward_clipped_at_each_eta_and_the_sweep_marked():
+    err = {"normalised": np.array([0.1, 2.0, 0.5]), "raw": np.array([1e-3, 1e-2, 0.2])}
+    fig, axes = plt.subplots(2, 1, sharex=True)
+    plots.rollout_errors(axes, err, {"normalised": 0.8, "raw": 0.05}, explore=2)
+    reward = r"$r^i$ (Eq. 4, clipped)"
+    norm = {ln.get_label(): ln for ln in axes[0].get_lines()}
+    raw = {ln.get_label(): ln for ln in axes[1].get_lines()}
+    np.testing.assert_allclose(norm["error"].get_xdata(), [1, 2, 3])
+    np.testing.assert_allclose(norm[reward].get_ydata(), [0.1, 0.8, 0.5])
+    np.testing.assert_allclose(raw[reward].get_ydata(), [1e-3, 1e-2, 0.05])
+    assert list(raw[r"$\eta$"].get_ydata()) == [0.05, 0.05]
+    assert list(raw["sweep starts"].get_xdata()) == [2.5, 2.5]
+    assert axes[1].get_xlabel() == "step" and axes[1].get_legend() is not None
+    plt.close(fig)

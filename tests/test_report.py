@@ -348,3 +348,11 @@ def test_seed_summary_mean_is_inf_when_a_seed_never_crossed():
     s = R.seed_summary([5.0, None, 6.0])
     assert s["mean"] == math.inf and s["median"] == 6.0 and s["k"] == 2
     assert R.seed_summary([])["mean"] is None
+
+
+def test_made_up_seed_carries_a_stopped_seed_to_the_budget_only():
+    stopped = R.made_up_seed([0.1, 0.96, 1.0], "stop rule", budget=6)
+    assert list(stopped.x) == [1, 2, 3, 4, 5, 6]
+    assert list(stopped.carried) == [False] * 3 + [True] * 3
+    full = R.made_up_seed([0.1, 0.96, 1.0], "budget", budget=6)
+    assert list(full.x) == [1, 2, 3] and list(full.y) == [0.1, 0.96, 1.0]

@@ -126,3 +126,37 @@ def test_stored_rows_one_row_a_task():
         "`obs_noise` = 0.01 m (their noise draws depend on the trial count)",
     )
     assert rows[3][1:] == ("–", "–", "no bench run here to compare")
+
+
+def test_check_stored_reads_each_simplified_runs_robust_json(tmp_path):
+    """Each task's simplified-state bench against the robust.json of its run folder;
+    a task without the folder or the file, or without a live bench, is said to be."""
+    import json
+
+    from acder_lite.stored_bench import check_stored, scope_sentence
+
+    R, P, PP = "FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4"
+    (tmp_path / "push").mkdir()
+    (tmp_path / "push" / "robust.json").write_text(
+        json.dumps(_hand_bench(4, {k: list(v) for k, v in STORED.items()}))
+    )
+    (tmp_path / "reach").mkdir()  # a run folder without robust.json
+    policies = {
+        R: {"full state": "x", "simplified state": "reach"},
+        P: {"full state": None, "simplified state": "push"},
+        PP: {"full state": "x", "simplified state": None},
+    }
+    live = _hand_bench(2, {k: v[:2] for k, v in STORED.items()})
+    bench = {(R, "simplified state"): live, (P, "simplified state"): live}
+    bench[P, "full state"] = _hand_bench(4, {})  # not the column compared
+    checks = check_stored(tmp_path, policies, bench)
+    assert list(checks) == [R, P, PP]
+    assert checks[R]["sentence"] == "no stored bench to compare"
+    assert checks[PP]["sentence"] == "no bench run here to compare"  # no folder
+    assert len(checks[P]["matched"]) == 2 and checks[P]["trials"] == 2
+    assert checks[P]["skipped"][0][:2] == ("obs_noise", 0.01)
+    assert scope_sentence(checks, 2).startswith("This build ran 2 trials a level")
+    whole = {P: compare_stored(_hand_bench(4, STORED), _hand_bench(4, STORED))}
+    assert scope_sentence(whole, 4) == (
+        "Every row that both benches ran is compared, on every trial."
+    )

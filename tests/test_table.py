@@ -755,3 +755,28 @@ def test_protocol_rows_follow_the_presets():
         ("Pick&Place", 100, 50, 400, "20 per worker", "95%"),
     ]
     assert protocol_rows(["FetchPush-v4"])[1] == rows[1:2]
+
+
+def test_switch_rows_one_column_per_switch_bools_as_yes_no():
+    from acder_lite.config import METHODS
+
+    head, rows = T.switch_rows(["her", "acder"])
+    assert head == ("method", *(f"`{k}`" for k in METHODS["acder"]))
+    assert [r[0] for r in rows] == ["`her`", "`acder`"]
+    her = dict(zip(METHODS["acder"], rows[0][1:]))
+    for k, v in METHODS["her"].items():
+        assert her[k] == (("yes" if v else "no") if isinstance(v, bool) else v)
+    assert set(rows[1][1:]) - {"yes", "no"}  # a choice, 'sicm', kept as it is
+
+
+def test_load_folder_and_planned_folder_read_what_is_there(results, tmp_path):
+    lines = []
+    assert RU.load_folder(tmp_path / "absent", warn=lines.append) == []
+    assert len(RU.load_folder(results, warn=lines.append)) == 4 and not lines
+    assert RU.planned_folder(results / "plan.toml", results) == {}
+    (results / "plan.toml").write_text(
+        '[[group]]\nenvs = ["FetchPush-v4"]\nmethods = ["her"]\nseeds = [0, 1, 2]\n'
+    )
+    planned = RU.planned_folder(results / "plan.toml", results)
+    assert planned == RU.planned_cells(results / "plan.toml", results)
+    assert planned[(P, "her")]["seeds"] == 3
