@@ -590,3 +590,31 @@ def alpha_point(ax, alpha0: float, success_rate: float):
     ax.set_ylabel(r"$\alpha$ (share of novel starts)")
     ax.set_ylim(-0.05, 1.05)
     ax.set_title(rf"$\alpha$ = {alpha:.3f}")
+
+
+PAPER_TASKS = (
+    "FetchReach-v4",
+    "FetchPush-v4",
+    "FetchPickAndPlace-v4",
+    "FetchPushMultiStep-v0",
+)
+"""The paper's four tasks, in its order."""
+
+
+def alpha_curves(ax, tasks=PAPER_TASKS):
+    """Chapter 6's Eq. 9: alpha (`start_states.novel_start_ratio`) against the test
+    success rate, a curve for each alpha0 the `tasks`' presets set (`TASK_PRESETS`),
+    labelled with the tasks that use it, so the figure follows the presets."""
+    from .start_states import novel_start_ratio
+
+    by_alpha0: dict[float, list[str]] = {}
+    for env in tasks:
+        by_alpha0.setdefault(TASK_PRESETS[env]["alpha0"], []).append(TASK_LABELS[env])
+    s = np.linspace(0, 1, 101)
+    for a0, names in by_alpha0.items():
+        label = rf"$\alpha_0$ = {a0:g} ({', '.join(names)})"
+        ax.plot(s, [novel_start_ratio(x, a0) for x in s], label=label)
+    ax.set_xlabel("test success rate")
+    ax.set_ylabel(r"$\alpha$ (Eq. 9)")
+    ax.set_ylim(-0.05, 1.05)
+    ax.legend()

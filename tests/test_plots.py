@@ -286,3 +286,29 @@ def test_rollout_errors_the_reward_clipped_at_each_eta_and_the_sweep_marked():
     assert list(raw["sweep starts"].get_xdata()) == [2.5, 2.5]
     assert axes[1].get_xlabel() == "step" and axes[1].get_legend() is not None
     plt.close(fig)
+
+
+def test_alpha_curves_one_curve_an_alpha0_of_the_presets(monkeypatch):
+    from acder_lite.config import TASK_PRESETS
+    from acder_lite.start_states import novel_start_ratio
+
+    fig, ax = plt.subplots()
+    plots.alpha_curves(ax)
+    labels = [ln.get_label() for ln in ax.get_lines()]
+    assert labels == [
+        r"$\alpha_0$ = 0.8 (Reach, Push, Pick&Place)",
+        r"$\alpha_0$ = 0.7 (Multi-step Push)",
+    ]
+    y = ax.get_lines()[1].get_ydata()
+    assert y[0] == novel_start_ratio(0.0, 0.7) and y[-1] == novel_start_ratio(1.0, 0.7)
+    plt.close(fig)
+    # the labels follow the presets, not the paper's numbers written down
+    push = dict(TASK_PRESETS["FetchPush-v4"], alpha0=0.6)
+    monkeypatch.setitem(TASK_PRESETS, "FetchPush-v4", push)
+    fig, ax = plt.subplots()
+    plots.alpha_curves(ax, ("FetchReach-v4", "FetchPush-v4"))
+    assert [ln.get_label() for ln in ax.get_lines()] == [
+        r"$\alpha_0$ = 0.8 (Reach)",
+        r"$\alpha_0$ = 0.6 (Push)",
+    ]
+    plt.close(fig)
