@@ -3,16 +3,13 @@ on synthetic cells: two equal seeds a cell make each 95% interval its crossing."
 
 from acder_lite import ablation_findings as AF, report as RE, table as T
 
-from conftest import curve_cell
+from conftest import curve_cell, her_acder_cells
 
 P = "FetchPush-v4"
 
 
 def test_ablation_sentence_for_the_book():
-    her, acder = (
-        curve_cell("her", [0.0, 0.5, 1.0, 1.0]),
-        curve_cell("acder", [0.5, 1.0, 1.0, 1.0]),
-    )  # 2.9 and 1.9 epochs (2 + 0.45 / 0.5, 1 + 0.45 / 0.5)
+    her, acder = her_acder_cells()  # 2.9 and 1.9 epochs
     # 3.9: slower than HER too
     slow = curve_cell("acder-no-curiosity", [0.0, 0.0, 0.5, 1.0])
     fast = curve_cell("acder-no-start-states", [1.0] * 4)  # 1.0: faster than full ACDER

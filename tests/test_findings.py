@@ -7,16 +7,13 @@ import pytest
 from acder_lite import findings as F, report as RE
 from acder_lite.words import sentence
 
-from conftest import curve_cell
+from conftest import curve_cell, her_acder_cells
 
 P = "FetchPush-v4"
 
 
 def test_sentences_for_the_book():
-    her, acder = (
-        curve_cell("her", [0.0, 0.5, 1.0, 1.0]),
-        curve_cell("acder", [0.5, 1.0, 1.0, 1.0]),
-    )  # 2.9 and 1.9 epochs (2 + 0.45 / 0.5, 1 + 0.45 / 0.5)
+    her, acder = her_acder_cells()  # 2.9 and 1.9 epochs
     (r,) = RE.ratios([her, acder], tasks=(P,))
     assert r.ours == pytest.approx(2.9 / 1.9)
     v = F.verdict([r])
