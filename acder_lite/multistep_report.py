@@ -76,10 +76,10 @@ def plan_words(cells: list, env: str = ENV_ID) -> dict[str, str]:
 def read_runs(where: Path, root: Path, warn=print) -> list[dict]:
     """The runs under `where` (`runs.load_runs`), [] when it is no folder; each folder
     it skips is passed to `warn` as one line, its path relative to `root`."""
-    from .runs import load_runs
+    from .runs import load_folder
 
     skipped = []
-    runs = load_runs(where, warn=skipped.append) if where.is_dir() else []
+    runs = load_folder(where, warn=skipped.append)
     for line in skipped:
         warn(line.replace(str(root) + "/", ""))
     return runs
@@ -172,13 +172,19 @@ def runs_words(
 
 
 def evaluation_counts(run: dict) -> tuple[int, int]:
-    """(successes, episodes) of a run of `runs.load_runs` over all its evaluations:
-    each evaluation is `test_episodes` episodes per worker (`Trainer.evaluate`), so
-    its test success times that number is its count of successes."""
+    """(successes, episodes) of a run of `runs.load_runs` over all its evaluations
+    (`evaluation_successes`, summed)."""
+    wins, n = evaluation_successes(run)
+    return int(sum(wins)), n * len(wins)
+
+
+def evaluation_successes(run: dict) -> tuple[list[int], int]:
+    """(per evaluation its successes, the test episodes of one evaluation) of a run of
+    `runs.load_runs`: `test_episodes` per worker (`Trainer.evaluate`), so an
+    evaluation's test success times their number is its count of successes."""
     cfg = run["config"]
     n = int(cfg["test_episodes"]) * int(cfg["workers"])
-    k = sum(round(row["test_success"] * n) for row in run["rows"])
-    return int(k), n * len(run["rows"])
+    return [round(row["test_success"] * n) for row in run["rows"]], n
 
 
 def progress_sentence(
@@ -277,8 +283,7 @@ def solved_starts_sentence(run: dict, label: str, solved) -> str:
     evaluation, how many of its test episodes started with the task already solved
     (`multistep.solved_test_starts`). Says how many started so, its successes, and at
     how many evaluations the two counts are equal."""
-    n = int(run["config"]["test_episodes"]) * int(run["config"]["workers"])
-    wins = [round(row["test_success"] * n) for row in run["rows"]]
+    wins, n = evaluation_successes(run)
     same = sum(int(w == int(x)) for w, x in zip(wins, solved))
     return (
         f"{label} seed {run['seed']}: {int(sum(solved)):,} of its "
