@@ -54,6 +54,23 @@ def _import_robotics():
     return gym
 
 
+def _spec(env_id: str):
+    """gymnasium's spec of `env_id`, or ConfigError saying it is not registered.
+
+    Trap: an id added to `config.ENV_IDS` passes the config's check, but gymnasium
+    only knows it once something registers it (as importing acder_lite registers
+    FetchPushMultiStep-v0); without this, gymnasium's NameNotFound traceback is
+    what a user sees."""
+    gym = _import_robotics()
+    try:
+        return gym.spec(env_id)
+    except gym.error.UnregisteredEnv as e:
+        raise ConfigError(
+            f"env={env_id!r} is not registered with gymnasium ({e}): register it "
+            "with gymnasium.register before making it (README, 'Extending it')"
+        ) from None
+
+
 def run_env_seeds(seed: int, workers: int, test: bool = False) -> list[int]:
     """The seeds of a run's W training envs (`seed * 1000 + i`) or of its W test envs
     (`seed * 1000 + 500 + i`): `Trainer` makes its envs with these, and a run's test
@@ -87,6 +104,7 @@ def make_env(
         check_obs(obs)
     if env_id not in ENV_IDS:
         raise ConfigError(f"env={env_id!r} is not allowed: one of {', '.join(ENV_IDS)}")
+    _spec(env_id)  # an unregistered id: one line, not gymnasium's traceback
     gym = _import_robotics()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -114,8 +132,7 @@ def make_env(
 def horizon(env_id: str) -> int:
     """Steps per episode (the registered time limit: 50 for gymnasium-robotics' Fetch
     tasks, 100 for FetchPushMultiStep-v0, registered by importing acder_lite)."""
-    gym = _import_robotics()
-    return int(gym.spec(env_id).max_episode_steps)
+    return int(_spec(env_id).max_episode_steps)
 
 
 def obs_names(env, full: bool = False) -> list[str]:

@@ -137,3 +137,29 @@ def test_obs_names_label_each_finger_by_its_joint():
         moved = np.flatnonzero(env._get_obs()["observation"] != before)
         assert f"finger_{side}" in [names[i] for i in moved]
         assert f"finger_{'lr'[side == 'l']}" not in [names[i] for i in moved]
+
+
+def test_a_task_added_to_the_tables_but_not_registered_is_one_line(
+    tmp_path, capsys, monkeypatch
+):
+    """README's 'Extending it' adds a task to `ENV_IDS` and `TASK_PRESETS`; forgetting
+    to register it with gymnasium gives one line naming the id (exit 2), not
+    gymnasium's NameNotFound traceback, and writes no run file."""
+    from acder_lite import cli, config
+
+    ids = (*config.ENV_IDS, "FetchFoo-v1")
+    presets = {
+        **config.TASK_PRESETS,
+        "FetchFoo-v1": config.TASK_PRESETS["FetchPush-v4"],
+    }
+    for mod in (config, E, cli):
+        monkeypatch.setattr(mod, "ENV_IDS", ids, raising=False)
+    monkeypatch.setattr(config, "TASK_PRESETS", presets)
+    with pytest.raises(ConfigError, match="env='FetchFoo-v1' is not registered"):
+        E.horizon("FetchFoo-v1")
+    out = tmp_path / "run"
+    argv = ["train", "--env", "FetchFoo-v1", "--epochs", "1", "--out", str(out)]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "env='FetchFoo-v1' is not registered" in err[0], err
+    assert not out.exists() or not any(out.iterdir())
