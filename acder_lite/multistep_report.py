@@ -67,9 +67,13 @@ def plan_words(cells: list, env: str = ENV_ID) -> dict[str, str]:
         plan_epochs=f"{most}",
         plan_share=f"{most / TASK_PRESETS[env]['epochs']:.0%}",
         plan_seeds=words if seeds else "no seed yet",
-        seeds_note=f"With {n} seeds a curve is a mean of few draws"
-        if n > 1
-        else "With one seed a curve is one draw",
+        seeds_note=(
+            f"With {n} seeds a curve is a mean of few draws"
+            if n > 1
+            else "With one seed a curve is one draw"
+            if n == 1
+            else "With no seed planned there is no curve yet"
+        ),
     )
 
 

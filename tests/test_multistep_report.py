@@ -191,7 +191,9 @@ def test_plan_words_follow_the_cells(tmp_path):
     assert (one["plan_epochs"], one["plan_share"]) == ("40", "10%")
     assert one["plan_seeds"] == "seed 0"
     assert one["seeds_note"] == "With one seed a curve is one draw"
-    assert plan_words([])["plan_seeds"] == "no seed yet"
+    none = plan_words([])
+    assert (none["plan_seeds"], none["plan_epochs"]) == ("no seed yet", "0")
+    assert none["seeds_note"] == "With no seed planned there is no curve yet"
 
 
 def test_read_runs_names_what_it_skips_relative_to_the_root(tmp_path):
