@@ -136,35 +136,6 @@ def test_show_scene_frames_the_book_path_and_labs_file_server():
     )  # one id a frame
 
 
-def test_seed_crossings_reads_each_seeds_first_crossing():
-    from acder_lite.book_utils import seed_crossings
-
-    def run(seed, values, name="her", env="FetchPush-v4"):
-        rows = [
-            dict(episodes=400.0 * k, test_success=v) for k, v in enumerate(values, 1)
-        ]
-        return dict(env=env, name=name, seed=seed, rows=rows)
-
-    runs = [
-        run(1, [0.2, 0.96, 0.5]),
-        run(0, [0.1, 0.3]),
-        run(2, [1.0], name="acder"),
-        run(3, [1.0], env="FetchReach-v4"),
-        dict(env="FetchPush-v4", name="her", seed=4, rows=[]),
-    ]
-    out = seed_crossings(runs, "FetchPush-v4", "her", 0.95)
-    assert [s["seed"] for s in out] == [0, 1]
-    assert out[0] == dict(seed=0, hit=None, best=0.3, episodes=800.0)
-    assert out[1] == dict(seed=1, hit=800.0, best=0.96, episodes=1200.0)
-    assert seed_crossings(runs, "FetchPush-v4", "her-per", 0.95) == []
-    from acder_lite.book_utils import crossing_text
-
-    assert [crossing_text(s) for s in out] == [
-        "seed 0: not reached (best 0.30 in 800)",
-        "seed 1: 800",
-    ]
-
-
 def test_plot_block_paths_draws_each_block_and_target_in_its_colour():
     import matplotlib
 
@@ -204,27 +175,6 @@ def test_plot_block_paths_draws_each_block_and_target_in_its_colour():
             assert np.allclose(target.get_xydata()[0], ep["g"][0, 3 * j : 3 * j + 2])
         plt.close(fig)
         env.close()
-
-
-def test_episode_stats_on_hand_made_episodes():
-    """Chapter 1's counts: solved at the reset, earned, near at some step, moved."""
-    from acder_lite import envs as E
-    from acder_lite.book_utils import EPISODE_STATS, episode_stats
-
-    env = E.make_env("FetchPush-v4", seed=0)
-    g = np.zeros((3, 2, 3))
-    ag = np.zeros((3, 3, 3))
-    ag[0] += [0.01, 0, 0]  # starts on the goal and stays: solved at step 0
-    ag[1] = [[0.3, 0, 0], [0.02, 0, 0], [0.3, 0, 0]]  # passes near, moves, ends off
-    ag[2] = [[0.3, 0, 0], [0.3, 0, 0], [0.005, 0, 0]]  # earned at the last step
-    ep = dict(ag=ag, g=g, success=np.array([1.0, 0.0, 1.0]))
-    s = episode_stats(ep, env)
-    assert set(EPISODE_STATS) <= set(s) and s["dist"].shape == (3, 2)
-    assert s["start"].tolist() == [True, False, False]
-    assert s["earned"].tolist() == [False, False, True]
-    assert s["any_step"].tolist() == [True, True, True]
-    assert s["moved"].tolist() == [False, True, True]
-    env.close()
 
 
 def test_plot_mean_curves_reads_the_mean_curve_and_says_its_status():
