@@ -11,8 +11,9 @@ diagnostics of one run; `chance_panel` draws a task's curves beside the test suc
 no learning is needed for (chapter 9's chance level). `clip_histogram` and
 `clip_share_curves` draw chapter 4's S-ICM errors against the clip eta (`novelty`), as
 `curiosity_losses`, `error_boxes` and `rollout_errors` draw its losses, error spreads
-and one rollout's errors; `factor_arrows` (chapter 5) and `alpha_point` (chapter 6)
-draw the goal-oriented factor and the start-state share alpha.
+and one rollout's errors; `factor_arrows`, `factor_curve`, `factor_minibatch` and
+`factor_against_block` (chapter 5) and `alpha_point` (chapter 6) draw the goal-oriented
+factor and the start-state share alpha.
 
 The figures are drawn for the book's text column: `WIDTH` inches wide at `DPI`, text at
 least `FONT` points, and a legend of learning curves under its axes (`legend_below`),
@@ -613,3 +614,66 @@ def alpha_curves(ax, tasks=PAPER_TASKS):
     ax.set_ylabel(r"$\alpha$ (Eq. 9)")
     ax.set_ylim(-0.05, 1.05)
     ax.legend()
+
+
+def factor_curve(axes, line: dict, rand: dict, corners):
+    """Chapter 5's Eq. 6 on hand-made actions (`factor_report`), a column of two
+    `axes`: the factor against the angle to the goal, `line` (`rotated_actions`) as a
+    black line and `rand` (`random_actions`) as dots behind it; under it the histogram
+    of `rand`'s factors, the factors of the `corners` directions (`corner_factors`)
+    dashed, their legend above the axes."""
+    ax = axes[0]
+    ax.plot(line["angle"], line["lam"], lw=1, color="k", label="rotated action")
+    ax.plot(rand["angle"], rand["lam"], ".", ms=3, alpha=0.4, label="random actions",
+            zorder=0)  # fmt: skip
+    ax.set_xlabel("angle between action and direction to goal (deg)")
+    ax.set_ylabel(r"$\lambda_r$ (Eq. 6)")
+    ax.legend()
+    ax = axes[1]
+    ax.hist(rand["lam"], bins=40)
+    for k, lam_c in enumerate(corners):
+        label = "cube-corner directions" if k == 0 else None
+        ax.axvline(lam_c, color="gray", ls="--", label=label)
+    ax.set_xlabel(r"$\lambda_r$ of uniformly random actions")
+    ax.set_ylabel("actions")
+    ax.legend(fontsize=FONT, loc="lower right", bbox_to_anchor=(1, 1))  # above
+
+
+def factor_minibatch(axes, lam, r_her, r, relabelled):
+    """Chapter 5's minibatch through the goal factor, on its `relabelled` rows only, a
+    column of two `axes`: the histogram of their factors `lam` (Eq. 6) with a random
+    direction's 1.25 dashed (legend above the axes), and under it their rewards before
+    (`r_her`) and after (`r`) the factor, on bins of width 0.05 from -1.55 to 0.05."""
+    h = np.asarray(relabelled, bool)
+    ax = axes[0]
+    ax.hist(lam[h], bins=40, label="relabelled rows of the minibatch")
+    ax.axvline(1.25, color="gray", ls="--", label="random direction")
+    ax.set_xlabel(r"$\lambda_r$ (Eq. 6)")
+    ax.legend(fontsize=FONT, loc="lower right", bbox_to_anchor=(1, 1))  # above
+    bins = np.linspace(-1.55, 0.05, 33)
+    ax = axes[1]
+    ax.hist([r_her[h], r[h]], bins=bins, label=[r"$r$ (HER)", r"$\lambda_r\, r$"])
+    ax.set_xlabel("reward of relabelled rows")
+    ax.legend()
+
+
+def factor_against_block(axes, f: dict):
+    """Chapter 5's FetchPush rows, `f` as `diagnose.goal_factor_against_object` returns
+    it, a column of two `axes`: the angle between gripper -> g^h and gripper -> block,
+    a stacked histogram split by whether the block moved, on a log count axis (most rows
+    sit in the first bin); under it the factor as used against the factor scored
+    towards the block, a row a dot, the diagonal dashed."""
+    moved, angle = f["moved"], f["angle"]
+    ax = axes[0]
+    labels = ["block still at the goal's step", "block moved"]
+    ax.hist([angle[~moved], angle[moved]], bins=36, range=(0, 180), stacked=True,
+            label=labels)  # fmt: skip
+    ax.set_xlabel(r"angle between gripper $\to g^h$ and gripper $\to$ block (deg)")
+    ax.set_yscale("log")
+    ax.set_ylabel("rows")
+    ax.legend(fontsize=FONT)
+    ax = axes[1]
+    ax.plot(f["lam_obj"], f["lam_goal"], ".", ms=2, alpha=0.5)
+    ax.plot([1, 1.5], [1, 1.5], color="gray", ls="--")
+    ax.set_xlabel(r"$\lambda_r$ scored against the block (gripper $\to$ block)")
+    ax.set_ylabel(r"$\lambda_r$ (Eq. 6, used)")

@@ -312,3 +312,84 @@ def test_alpha_curves_one_curve_an_alpha0_of_the_presets(monkeypatch):
         r"$\alpha_0$ = 0.6 (Push)",
     ]
     plt.close(fig)
+
+
+def test_factor_curve_the_line_over_the_dots_and_the_corners_dashed():
+    """Chapter 5's Eq. 6 on hand-made actions: the rotated action's line, the random
+    actions' dots behind it, and under them their histogram with a dashed line at
+    each corner's factor, labelled once."""
+    from acder_lite import factor_report as F
+
+    goal = np.array([0.1, 0.0, 0.0])
+    line = F.rotated_actions(goal, azimuth=[-90, 0, 90])
+    rand = F.random_actions(goal, 50, np.random.default_rng(0))
+    corners = F.corner_factors(goal)
+    fig, axes = plt.subplots(2, 1)
+    plots.factor_curve(axes, line, rand, corners)
+    curve, dots = axes[0].get_lines()
+    np.testing.assert_allclose(curve.get_xdata(), [90, 0, 90])
+    np.testing.assert_allclose(curve.get_ydata(), [1.25, 1.0, 1.25])
+    assert dots.get_linestyle() == "None" and len(dots.get_xdata()) == 50
+    assert dots.get_zorder() < curve.get_zorder()  # the dots behind the line
+    assert [t.get_text() for t in axes[0].get_legend().get_texts()] == [
+        "rotated action",
+        "random actions",
+    ]
+    assert len(axes[1].patches) == 40  # the histogram's bars
+    assert sum(p.get_height() for p in axes[1].patches) == 50
+    dashed = [ln for ln in axes[1].get_lines() if ln.get_linestyle() == "--"]
+    np.testing.assert_allclose([ln.get_xdata()[0] for ln in dashed], corners)
+    legend = [t.get_text() for t in axes[1].get_legend().get_texts()]
+    assert legend == ["cube-corner directions"]
+    assert axes[1].get_xlabel() == r"$\lambda_r$ of uniformly random actions"
+    plt.close(fig)
+
+
+def test_factor_minibatch_draws_the_relabelled_rows_only():
+    lam = np.array([1.0, 1.5, 1.1, 1.4])
+    r_her = np.array([-1.0, -1.0, 0.0, -1.0])
+    r = lam * r_her
+    h = np.array([True, False, True, True])  # row 1 was not relabelled
+    fig, axes = plt.subplots(2, 1)
+    plots.factor_minibatch(axes, lam, r_her, r, h)
+    assert sum(p.get_height() for p in axes[0].patches) == 3  # the relabelled rows
+    last = axes[0].patches[-1]  # the bins end at 1.4: row 1's 1.5 is left out
+    assert last.get_x() + last.get_width() == pytest.approx(1.4)
+    (random,) = axes[0].get_lines()
+    assert list(random.get_xdata()) == [1.25, 1.25] and random.get_linestyle() == "--"
+    her, factor = axes[1].containers  # one set of bars per reward
+    assert len(her) == len(factor) == 32  # bins of 0.05 from -1.55 to 0.05
+    assert sum(p.get_height() for p in her) == sum(p.get_height() for p in factor) == 3
+    # with the factor -1.0, 0 and -1.4 (not row 1's -1.5) on the chapter's bins
+    bins = np.linspace(-1.55, 0.05, 33)
+    heights = [p.get_height() for p in factor]
+    np.testing.assert_array_equal(heights, np.histogram([-1.0, 0.0, -1.4], bins)[0])
+    labels = [t.get_text() for t in axes[1].get_legend().get_texts()]
+    assert labels == [r"$r$ (HER)", r"$\lambda_r\, r$"]
+    plt.close(fig)
+
+
+def test_factor_against_block_stacks_the_moved_rows_on_a_log_axis():
+    f = dict(
+        angle=np.array([1.0, 2.0, 100.0, 170.0]),
+        moved=np.array([False, False, True, False]),
+        lam_goal=np.array([1.0, 1.1, 1.4, 1.2]),
+        lam_obj=np.array([1.0, 1.1, 1.2, 1.2]),
+    )
+    fig, axes = plt.subplots(2, 1)
+    plots.factor_against_block(axes, f)
+    assert axes[0].get_yscale() == "log" and axes[1].get_yscale() == "linear"
+    still, moved = axes[0].containers
+    assert len(still) == len(moved) == 36  # bins of 5 degrees from 0 to 180
+    assert [p.get_height() for p in still][:1] == [2] and still[34].get_height() == 1
+    # stacked: the moved row's bar (100 deg, bin 20) sits on the still rows' count
+    assert moved[20].get_height() == 1 and moved[0].get_height() == 0
+    assert moved[34].get_y() == still[34].get_height()
+    labels = [t.get_text() for t in axes[0].get_legend().get_texts()]
+    assert labels == ["block still at the goal's step", "block moved"]
+    dots, diagonal = axes[1].get_lines()
+    np.testing.assert_allclose(dots.get_xdata(), f["lam_obj"])
+    np.testing.assert_allclose(dots.get_ydata(), f["lam_goal"])
+    assert list(diagonal.get_xdata()) == list(diagonal.get_ydata()) == [1, 1.5]
+    assert axes[1].get_ylabel() == r"$\lambda_r$ (Eq. 6, used)"
+    plt.close(fig)
