@@ -577,19 +577,27 @@ def factor_arrows(ax, goal, action, lam: float, r_fail: float):
     ax.legend(loc="lower left", fontsize=9)
 
 
+def _alpha_against_success(ax, alpha0: float, ylabel: str, **line):
+    """Eq. 9's alpha (`start_states.novel_start_ratio`) for `alpha0` against the test
+    success rate on `ax`, with the axes the two alpha figures share."""
+    from .start_states import novel_start_ratio
+
+    s = np.linspace(0, 1, 101)
+    ax.plot(s, [novel_start_ratio(x, alpha0) for x in s], **line)
+    ax.set_xlabel("test success rate")
+    ax.set_ylabel(ylabel)
+    ax.set_ylim(-0.05, 1.05)
+
+
 def alpha_point(ax, alpha0: float, success_rate: float):
     """Chapter 6's widget: Eq. 9's alpha (`start_states.novel_start_ratio`) against
     the test success rate for `alpha0`, a red dot at `success_rate`, whose alpha the
     title gives."""
     from .start_states import novel_start_ratio
 
-    s = np.linspace(0, 1, 101)
-    ax.plot(s, [novel_start_ratio(x, alpha0) for x in s])
+    _alpha_against_success(ax, alpha0, r"$\alpha$ (share of novel starts)")
     alpha = novel_start_ratio(success_rate, alpha0)
     ax.plot([success_rate], [alpha], "ro")
-    ax.set_xlabel("test success rate")
-    ax.set_ylabel(r"$\alpha$ (share of novel starts)")
-    ax.set_ylim(-0.05, 1.05)
     ax.set_title(rf"$\alpha$ = {alpha:.3f}")
 
 
@@ -601,18 +609,12 @@ def alpha_curves(ax, tasks=PAPER_TASKS):
     """Chapter 6's Eq. 9: alpha (`start_states.novel_start_ratio`) against the test
     success rate, a curve for each alpha0 the `tasks`' presets set (`TASK_PRESETS`),
     labelled with the tasks that use it, so the figure follows the presets."""
-    from .start_states import novel_start_ratio
-
     by_alpha0: dict[float, list[str]] = {}
     for env in tasks:
         by_alpha0.setdefault(TASK_PRESETS[env]["alpha0"], []).append(TASK_LABELS[env])
-    s = np.linspace(0, 1, 101)
     for a0, names in by_alpha0.items():
         label = rf"$\alpha_0$ = {a0:g} ({', '.join(names)})"
-        ax.plot(s, [novel_start_ratio(x, a0) for x in s], label=label)
-    ax.set_xlabel("test success rate")
-    ax.set_ylabel(r"$\alpha$ (Eq. 9)")
-    ax.set_ylim(-0.05, 1.05)
+        _alpha_against_success(ax, a0, r"$\alpha$ (Eq. 9)", label=label)
     ax.legend()
 
 
@@ -624,8 +626,8 @@ def factor_curve(axes, line: dict, rand: dict, corners):
     dashed, their legend above the axes."""
     ax = axes[0]
     ax.plot(line["angle"], line["lam"], lw=1, color="k", label="rotated action")
-    ax.plot(rand["angle"], rand["lam"], ".", ms=3, alpha=0.4, label="random actions",
-            zorder=0)  # fmt: skip
+    dots = dict(ms=3, alpha=0.4, zorder=0)  # behind the line
+    ax.plot(rand["angle"], rand["lam"], ".", label="random actions", **dots)
     ax.set_xlabel("angle between action and direction to goal (deg)")
     ax.set_ylabel(r"$\lambda_r$ (Eq. 6)")
     ax.legend()
