@@ -263,7 +263,7 @@ class Trainer:
             )
             self.ebp.add_episodes(slots, energy)
             self.diag["energy"] += float(energy.sum())
-        self._update_normalizer(ep)
+        self.update_normalizers(ep)
         W = len(self.envs)
         self.episodes += W
         self.env_steps += W * self.T
@@ -273,9 +273,12 @@ class Trainer:
         d["n_succ"] += int(ep["success"].sum())
         return ep
 
-    def _update_normalizer(self, ep: dict) -> None:
-        """Baselines: statistics from HER-relabelled samples of the episodes just
-        collected."""
+    def update_normalizers(self, ep: dict) -> None:
+        """Fit the observation and goal normalisers on the episodes `ep` just
+        collected, as Baselines does: on n * T HER-relabelled samples of them (so the
+        goal statistics include achieved goals), clipped to `clip_obs`. Trap: it draws
+        from the trainer's generator, so calling it outside `collect` changes the
+        run's later numbers."""
         n = ep["o"].shape[0]
         tr = sample_her_transitions(
             ep, n * self.T, self.cfg.future_p, self.reward_fn, self.rng

@@ -388,3 +388,54 @@ def test_curiosity_step_after_gives_the_stepped_models_prediction(cls):
     torch.testing.assert_close(t1, now[1])
     assert not torch.allclose(p0, p1)  # the step moved the prediction
     assert not p1.requires_grad and not t1.requires_grad
+
+
+def test_icm_inverse_model_reads_phi_of_both_states():
+    """ICM's inverse model predicts a_t from (phi(s_t), phi(s_{t+1})) (Pathak et al.
+    2017), so its loss depends on s_{t+1}. Hand-set networks: phi(s) = relu(s) (the
+    identity on s >= 0) and an inverse model a_hat = phi(s') - phi(s) (through
+    relu(d) - relu(-d)). On transitions with s' = s + a its loss is 0; with a = 0 it
+    is mean ||s' - s||^2 = ((0.5^2 + 1^2) + (2^2 + 0.5^2)) / 2 = 2.75. An inverse model
+    fed phi(s) twice (or phi(s') twice) predicts 0 and gets 2.75 on the first batch."""
+    m = ICM(2, 2, feat_dim=2, hidden=4)
+    with torch.no_grad():
+        for p in m.parameters():
+            p.zero_()
+        m.phi[0].weight[:2] = torch.eye(2)
+        m.phi[2].weight[:, :2] = torch.eye(2)
+        # input [phi(s), phi(s')]; hidden relu(+-(phi(s')_k - phi(s)_k))
+        m.inverse[0].weight.copy_(
+            torch.tensor([[-1.0, 0, 1, 0], [1, 0, -1, 0], [0, -1, 0, 1], [0, 1, 0, -1]])
+        )
+        m.inverse[2].weight.copy_(torch.tensor([[1.0, -1, 0, 0], [0, 0, 1, -1]]))
+    s = torch.tensor([[1.0, 2.0], [3.0, 1.0]])
+    a = torch.tensor([[0.5, -1.0], [-2.0, 0.5]])
+    with torch.no_grad():
+        inv = m.losses(s, a, s + a)[1]
+        assert inv.item() == pytest.approx(0.0, abs=1e-12)
+        inv = m.losses(s, torch.zeros(2, 2), s + a)[1]
+        assert inv.item() == pytest.approx(2.75, rel=1e-6)
+
+
+def test_update_takes_eq2s_target_from_the_target_actor():
+    """Eq. 2 inside `DDPG.update`: y = r + gamma Q'(s', pi'(s')) with pi' the target
+    actor, not the online one. Hand-set networks (hidden 4, one layer): Q = 0,
+    Q'(s, u) = relu(u_1 + u_2), pi' = tanh(0) = 0, pi = tanh(1) = 0.7616. With pi',
+    y = r, so td = r = [-1, 0, -1, -1] and the critic loss is 3/4. With the online
+    actor y = r + 0.98 * 1.5232 clips to 0 on every row (clip [-50, 0]) and td = 0. The
+    networks are set after construction, where actor and target are still equal."""
+    from acder_lite.config import Config
+    from acder_lite.ddpg import DDPG
+
+    agent = DDPG(3, 2, Config(hidden=4, layers=1, gamma=0.98).resolve())
+    with torch.no_grad():
+        for net in (agent.actor, agent.actor_targ, agent.critic, agent.critic_targ):
+            for p in net.parameters():
+                p.zero_()
+        agent.actor.net[-2].bias.fill_(1.0)  # pi = tanh(1) in both dims
+        agent.critic_targ.net[0].weight[0, 3:] = 1.0  # hidden unit 0: u_1 + u_2
+        agent.critic_targ.net[-1].weight[0, 0] = 1.0
+    b = batch()
+    out = agent.update(b, (-50.0, 0.0))
+    np.testing.assert_allclose(out["td"].numpy(), [-1.0, 0.0, -1.0, -1.0], atol=1e-6)
+    assert out["critic_loss"].item() == pytest.approx(0.75, rel=1e-6)

@@ -333,3 +333,37 @@ def test_every_committed_protocol_v1_config_reads_back():
         # written before update_dtype existed: float32, whatever 'auto' would pick on
         # this CPU
         assert cfg.update_dtype == d.get("update_dtype", "float32"), path
+
+
+def test_baselines_ddpg_defaults_reach_the_networks_and_normalisers():
+    """DESIGN.md, protocol v2: Baselines' defaults hold unless a row says otherwise:
+    polyak 0.95 (the target moves 5% of the way to the main network a cycle), action
+    L2 1.0, observations clipped to 200 and normalised with eps 0.01, clipped to 5,
+    Adam lr 1e-3, noise 0.2, random actions 0.3, k = 4. Checked where they act: a
+    trained run's normalisers clip at 5, its targets take a 0.05 step."""
+    cfg = Config().resolve()
+    assert (cfg.polyak, cfg.action_l2, cfg.clip_obs) == (0.95, 1.0, 200.0)
+    assert (cfg.norm_eps, cfg.norm_clip, cfg.lr_actor, cfg.lr_critic) == (
+        0.01,
+        5.0,
+        1e-3,
+        1e-3,
+    )
+    assert (cfg.noise_eps, cfg.random_eps, cfg.replay_k) == (0.2, 0.3, 4)
+    tr = Trainer(tiny_config())
+    for norm in (tr.o_norm, tr.g_norm):
+        assert (norm.eps, norm.clip) == (0.01, 5.0)
+        assert norm.normalize(torch.full((1, norm.size), 1e6)).max().item() == 5.0
+    agent = tr.agent
+    with torch.no_grad():
+        for net, targ in (
+            (agent.actor, agent.actor_targ),
+            (agent.critic, agent.critic_targ),
+        ):
+            for p, q in zip(net.parameters(), targ.parameters()):
+                p.fill_(1.0)
+                q.fill_(0.0)
+    agent.update_targets()
+    for targ in (agent.actor_targ, agent.critic_targ):
+        for q in targ.parameters():
+            torch.testing.assert_close(q, torch.full_like(q, 0.05))

@@ -627,3 +627,49 @@ def test_eq9_follows_the_latest_test_success(monkeypatch):
         [r["alpha"] for r in rows], [0.78161, 0.3, 0.70410], atol=5e-6
     )
     assert tr.selector.alpha == pytest.approx(0.70410, abs=5e-6)
+
+
+def test_goal_factor_measures_from_the_gripper_not_the_block():
+    """Eq. 6's s^a_t is the gripper position, o[:3] (DESIGN.md), not the achieved goal
+    (on Push, the block). A minibatch set by hand on FetchPush: gripper at the origin,
+    block at x = 1, relabelled goal g^h at x = 0.5, r_her = -1 on every row, actions
+    +x and -x in turn. From the gripper the goal lies along +x: lambda = 1 and 1.5, so
+    r = -1, -1.5, ... (Eq. 5); measured from the block it lies along -x and the two
+    swap. S-ICM's r_i stays out of the reward (acder-no-curiosity)."""
+    tr = Trainer(tiny_config(method="acder-no-curiosity", env="FetchPush-v4", epochs=1))
+    tr.collect()
+    batch = tr.sample_batch()
+    n = len(batch["r"])
+    batch["o"] = batch["o"].copy()
+    batch["o"][:, :3] = 0.0
+    batch["ag"] = np.tile(np.float32([1.0, 0.0, 0.0]), (n, 1))
+    batch["g"] = np.tile(np.float32([0.5, 0.0, 0.0]), (n, 1))
+    batch["her"] = np.ones(n, bool)
+    batch["r"] = np.full(n, -1.0, np.float32)
+    batch["u"] = np.zeros_like(batch["u"])
+    batch["u"][:, 0] = np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
+    r = tr.rewards(batch, tr.batch_tensors(batch)).numpy()
+    np.testing.assert_allclose(r, np.where(np.arange(n) % 2 == 0, -1.0, -1.5))
+
+
+def test_normalisers_are_fitted_on_her_relabelled_clipped_samples():
+    """Baselines fits the normalisers on HER-relabelled transitions of the episodes just
+    collected, clipped to clip_obs (DESIGN.md), not on the stored desired goals. Four
+    hand-made Reach episodes: o = 500 everywhere (clipped to 200), desired goal 5,
+    achieved goal 0. With future_p = 0.8 a share ~0.2 of the n*T = 200 samples keeps
+    goal 5, the rest get 0: the goal mean is ~1.0 (sd 5 * sqrt(0.16 / 200) = 0.14),
+    not 5; the observation mean is exactly 200. (`update_normalizers` is the step
+    `collect` takes; called here on episodes whose goals are known.)"""
+    tr = Trainer(tiny_config(method="her"))
+    n, T, d = 4, tr.T, tr.dims
+    ep = dict(
+        o=np.full((n, T + 1, d["o"]), 500.0, np.float32),
+        ag=np.zeros((n, T + 1, d["g"]), np.float32),
+        g=np.full((n, T, d["g"]), 5.0, np.float32),
+        u=np.zeros((n, T, d["u"]), np.float32),
+    )
+    tr.update_normalizers(ep)
+    assert tr.o_norm.count == tr.g_norm.count == n * T
+    np.testing.assert_allclose(tr.o_norm.mean, 200.0)
+    assert np.all(np.abs(tr.g_norm.mean - 1.0) < 0.6)
+    assert np.all(tr.g_norm.mean == tr.g_norm.mean[0])  # a row keeps or loses all 3
