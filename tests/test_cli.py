@@ -645,3 +645,30 @@ def test_train_help_lists_every_method_and_task_from_their_tables(capsys):
     assert "One of: " + ", ".join(METHODS) in method.replace("- ", "-")
     env = text[text.index("--env ENV") :].split("(default: FetchReach-v4)")[0]
     assert "One of: " + ", ".join(ENV_IDS) in env
+
+
+def test_config_ranges_at_their_edges():
+    """Config.validate at both edges of a range: workers in [1, MAX_WORKERS] (no env is
+    no run), replay_k >= 0 (HER's future_p = 1 - 1/(1 + k) stays in [0, 1)), the
+    exploration's noise and random-action probability in [0, 1]."""
+    from acder_lite.config import MAX_WORKERS, Config, ConfigError
+
+    for ok in (
+        dict(workers=1),
+        dict(workers=MAX_WORKERS),
+        dict(replay_k=0),
+        dict(noise_eps=0.0, random_eps=0.0),
+        dict(noise_eps=1.0, random_eps=1.0),
+    ):
+        Config(**ok).validate()
+    assert Config(replay_k=0).resolve().future_p == 0.0
+    for bad, want in (
+        (dict(workers=0), "workers=0 is not allowed: an integer >= 1"),
+        (dict(workers=MAX_WORKERS + 1), f"workers={MAX_WORKERS + 1} is not allowed"),
+        (dict(replay_k=-1), "replay_k=-1 is not allowed: an integer >= 0"),
+        (dict(random_eps=1.5), "random_eps=1.5 is not allowed: a number in [0, 1]"),
+        (dict(noise_eps=-0.1), "noise_eps=-0.1 is not allowed: a number in [0, 1]"),
+    ):
+        with pytest.raises(ConfigError) as e:
+            Config(**bad).validate()
+        assert str(e.value).startswith(want), e.value

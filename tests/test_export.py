@@ -242,3 +242,21 @@ def test_trained_text_counts_in_words():
     assert trained_text(dict(epochs=2.5, episodes=1200, test_success=0.5)) == (
         "trained 2.5 epochs, 1,200 episodes, test success 0.50 at its last evaluation"
     )
+
+
+def test_goals_are_clipped_to_clip_obs_before_normalising(tmp_path):
+    """As `Policy.inputs`: a goal beyond clip_obs (200) is clipped, then normalised.
+    With a goal normaliser about 100 wide, a goal of +-1000 reads as about +-2 (inside
+    the norm clip 5), not as +-5: the export's actions are the policy's."""
+    pol = policy_dict("FetchPush-v4", "full", spread=300.0)  # goal std ~ 100
+    path = tmp_path / "p.ts"
+    export_torchscript(pol, str(path))
+    m = torch.jit.load(str(path))
+    o, g = inputs(25, 3)
+    g[:10], g[10:20] = 1000.0, -1000.0
+    ref = Policy.from_state_dict(pol)
+    x = ref.inputs(o, g).numpy()[:20, 25:]
+    assert 1.5 < np.abs(x).min() and np.abs(x).max() < 2.5
+    with torch.no_grad():
+        got = m(torch.from_numpy(o), torch.from_numpy(g)).numpy()
+    assert np.abs(got - ref(o, g)).max() <= 1e-6

@@ -166,3 +166,13 @@ def test_cells_not_timed_are_counted_not_zero(grid, tmp_path, capsys):
     assert G.sentence(G.estimate(plan([P], ["her"], [0, 1], grid)), 1) == (
         "time left: no cell to run or resume"
     )
+
+
+def test_the_sweeps_options_win_over_a_cells_own(grid):
+    """A cell whose plan group sets epochs = 30, swept with --epochs 12: timed to 12
+    epochs, the budget its train command gets (the sweep's options over the cell's,
+    `sweep.cell_options`), at her's median 125 s an epoch (seeds 0 and 1 finished)."""
+    cells = plan([P], ["her"], [0, 1, 2], grid, options={"epochs": 30})
+    assert G.estimate(cells)["budget_h"] == pytest.approx(30 * 125 / 3600)
+    est = G.estimate(cells, {"epochs": 12})
+    assert est["budget_h"] == pytest.approx(12 * 125 / 3600) == est["finished_h"]

@@ -252,3 +252,60 @@ def test_pack_refuses_a_checkpoint_of_bad_config_progress_or_buffer(tmp_path, ca
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "cannot be written" in err[0], err
     assert main(["pack", str(run)]) == 0
+
+
+def test_a_changed_success_flag_is_refused(tmp_path):
+    """The success flags come from the chunks, not from the re-simulation, so the
+    digest covers them too: a chunk with one episode's flag flipped is refused."""
+    run = tmp_path / "run"
+    Trainer(tiny_config(epochs=2), str(run)).train(False, max_cycles=3)
+    carried(run)
+    chunk = next((run / packed.FOLDER).glob("episodes-*.npz"))
+    part = dict(np.load(chunk))
+    part["success"][0] = not part["success"][0]
+    np.savez_compressed(chunk, **part)
+    with pytest.raises(CheckpointError, match="differs from the one that was packed"):
+        packed.unpack(run)
+
+
+def test_a_pack_of_another_format_is_refused(tmp_path):
+    """state.pt.gz records the layout's version (`packed.FORMAT`): a packed folder of
+    another version is refused in one line naming both, not unpacked as if it were
+    this one."""
+    import gzip
+
+    import torch
+
+    from acder_lite.io import arrays_as_tensors
+
+    run = tmp_path / "run"
+    Trainer(tiny_config(epochs=2), str(run)).train(False, max_cycles=3)
+    carried(run)
+    state = packed.read_state(run)
+    state["packed_format"] = packed.FORMAT + 1
+    with gzip.open(run / packed.FOLDER / packed.STATE, "wb") as z:
+        torch.save(arrays_as_tensors(state), z)
+    want = f"has format {packed.FORMAT + 1}; allowed: {packed.FORMAT}"
+    with pytest.raises(CheckpointError, match=want):
+        packed.read_state(run)
+    with pytest.raises(CheckpointError, match=want):
+        packed.unpack(run)
+
+
+def test_packing_again_replaces_a_chunk_that_holds_other_episodes(tmp_path):
+    """A chunk whose name fits the buffer but whose episodes are not the buffer's (one
+    action one ulp off: a stale or damaged chunk) is not kept by the next pack: it is
+    written again, and the folder unpacks to the checkpoint's buffer."""
+    run = tmp_path / "run"
+    Trainer(tiny_config(epochs=2), str(run)).train(False, max_cycles=3)
+    ckpt = load_torch(str(run / "checkpoint.pt"))
+    packed.pack(ckpt, run / packed.FOLDER)
+    chunk = next((run / packed.FOLDER).glob("episodes-*.npz"))
+    part = dict(np.load(chunk))
+    part["u"][1, 7, 0] = np.nextafter(part["u"][1, 7, 0], np.float32(2))
+    np.savez_compressed(chunk, **part)
+    again = packed.pack(ckpt, run / packed.FOLDER)
+    assert (again["episodes"], again["new"]) == (6, 6)  # 3 cycles of 2 episodes
+    back = packed.unpack(run)["buffer"]
+    for k in ("o", "ag", "g", "u", "state", "success"):
+        assert back[k].tobytes() == ckpt["buffer"][k].tobytes(), k

@@ -505,3 +505,21 @@ def test_bench_policies_benches_every_trained_column(controller_policy):
     )
     with pytest.raises(ConfigError, match="is not the policy's task"):
         bench_policies(root, {"FetchPush-v4": cols}, **kw)
+
+
+def test_success_needs_every_block_within_the_tolerance():
+    """Two blocks (6-D goals) at 5 cm: 3 cm and 4 cm off succeed; one block on its
+    target and the other 6 cm off does not; one block (3-D goals): strictly within."""
+    from acder_lite.robust import success
+
+    g = np.zeros((3, 6))
+    ag = np.array(
+        [
+            [0.03, 0, 0, 0, 0.04, 0],
+            [0, 0, 0, 0.06, 0, 0],
+            [0.06, 0, 0, 0, 0, 0],
+        ]
+    )
+    assert success(ag, g, 0.05).tolist() == [True, False, False]
+    one = np.array([[0.0, 0.03, 0.0399], [0.0, 0.03, 0.0401]])  # 4.99 and 5.01 cm
+    assert success(one, np.zeros((2, 3)), 0.05).tolist() == [True, False]

@@ -579,3 +579,19 @@ def test_an_exported_torchscript_file_is_named_as_one(tmp_path, cli):
     one_line(cli("robust", str(ts)), *want)
     one_line(cli("export", str(ts), "--out", str(tmp_path / "again.ts")), *want)
     assert not (tmp_path / "again.ts").exists()
+
+
+def test_a_dict_holding_arrays_keeps_its_type_and_metadata():
+    """A dict that holds an array is rebuilt around the array's tensor: it keeps its
+    type and what a torch state_dict carries beside its items (`_metadata`), on the way
+    in and on the way back."""
+    from collections import OrderedDict
+
+    sd = OrderedDict(w=np.arange(3.0), n=2)
+    sd._metadata = OrderedDict({"": {"version": 2}})
+    enc = aio.arrays_as_tensors(dict(s=sd))
+    assert isinstance(enc["s"]["w"][aio.NUMPY_TAG], torch.Tensor)
+    assert type(enc["s"]) is OrderedDict and enc["s"]._metadata == sd._metadata
+    back = aio.tensors_as_arrays(enc)
+    assert type(back["s"]) is OrderedDict and back["s"]._metadata == sd._metadata
+    assert back["s"]["w"].tobytes() == sd["w"].tobytes() and back["s"]["n"] == 2

@@ -83,3 +83,42 @@ def test_a_write_outside_the_main_thread_works(tmp_path):
     t.start()
     t.join()
     assert not errors and (tmp_path / "t").read_bytes() == b"t"
+
+
+def test_a_write_that_fails_leaves_the_old_file_whole(tmp_path):
+    """A writer that raises half-way (a full disk, a caller's bug) leaves the previous
+    file as it was and no temporary file: the new bytes go to a temporary name and
+    replace the file only once written whole."""
+    path = tmp_path / "progress.csv"
+    path.write_bytes(b"epoch,test_success\n1,0.5\n")
+
+    def half(f):
+        f.write(b"epoch,te")
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(OSError, match="No space left"):
+        io.atomic_write(str(path), half)
+    assert path.read_bytes() == b"epoch,test_success\n1,0.5\n"
+    assert os.listdir(tmp_path) == ["progress.csv"]
+
+
+def test_the_bytes_reach_the_disk_before_the_rename(tmp_path, monkeypatch):
+    """The order that survives a power cut: the temporary file is flushed and fsynced
+    (it holds all 5 bytes when fsync is called) before the rename makes it the file;
+    renamed first, a crash could leave the file empty."""
+    calls = []
+    real_fsync, real_replace = os.fsync, os.replace
+
+    def fsync(fd):
+        calls.append(("fsync", os.fstat(fd).st_size))
+        real_fsync(fd)
+
+    def replace(src, dst):
+        calls.append(("replace", os.path.basename(dst)))
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(os, "replace", replace)
+    io.atomic_write(str(tmp_path / "a.json"), lambda f: f.write(b"12345"))
+    assert calls == [("fsync", 5), ("replace", "a.json")]
+    assert (tmp_path / "a.json").read_bytes() == b"12345"

@@ -1297,3 +1297,59 @@ def test_a_finished_cell_with_other_settings_is_a_skip_that_says_so(tmp_path, ca
     out = capsys.readouterr().out
     assert "her/seed0" in out and "epochs 2 (this sweep: 2)" not in out
     assert "epochs 50 (this sweep: 2)" in out  # her/seed1's budget was 50
+
+
+def test_a_groups_own_keys_win_over_the_defaults(tmp_path):
+    """[defaults] fills in what a group leaves out: a group's own key wins (root, hold),
+    and its `config` wins field by field over the defaults' (epochs), keeping the
+    defaults' other fields (eta)."""
+    path = tmp_path / "plan.toml"
+    path.write_text(
+        '[defaults]\nroot = "a"\nhold = "later"\nconfig = { epochs = 3, eta = 0.5 }\n'
+        '[[group]]\nenvs = ["FetchPush-v4"]\nmethods = ["acder"]\nseeds = [0]\n'
+        'root = "b"\nhold = ""\nconfig = { epochs = 7 }\n'
+        '[[group]]\nenvs = ["FetchReach-v4"]\nmethods = ["her"]\nseeds = [0]\n'
+    )
+    first, second = read_plan(path)
+    assert first.out == tmp_path / "b" / "FetchPush-v4" / "acder" / "seed0"
+    assert first.options == {"epochs": 7, "eta": 0.5} and first.action == "run"
+    assert second.out == tmp_path / "a" / "FetchReach-v4" / "her" / "seed0"
+    assert second.options == {"epochs": 3, "eta": 0.5}
+    assert (second.action, second.note) == ("skip", "on hold: later")
+
+
+def test_differences_name_every_field_but_the_speed_only_ones():
+    """`same_as.differences`: every field whose values differ, by name, a field one
+    config lacks read as '<absent>' there, in either direction; the threads, the split
+    update and the parallel stepping are speed only (NEUTRAL_FIELDS), the update's
+    precision is not."""
+    from acder_lite import same_as
+    from acder_lite.config import Config
+
+    ours = Config(env="FetchPush-v4", method="her", seed=0).resolve().to_dict()
+    theirs = dict(ours, threads=2, step_threads=2, split_update="x", seed=1)
+    other = "bfloat16" if ours["update_dtype"] == "float32" else "float32"
+    theirs.update(update_dtype=other, old_field=3)
+    del theirs["reward_bonus"]
+    assert same_as.differences(ours, theirs) == [
+        ("old_field", 3, "<absent>"),
+        ("reward_bonus", "<absent>", 0.0),
+        ("seed", 1, 0),
+        ("update_dtype", other, ours["update_dtype"]),
+    ]
+    assert same_as.differences(ours, dict(ours, threads=8)) == []
+
+
+def test_train_args_checked_with_each_groups_config(tmp_path, capsys):
+    """Two groups of one (env, method) pair with different configs: --train-args are
+    checked with each group's config, not with the first one's only (sincos angles
+    need sicm_input='raw', which the second group turns off)."""
+    path = tmp_path / "plan.toml"
+    group = "[[group]]\nenvs = ['FetchPush-v4']\nmethods = ['acder']\nseeds = [0]\n"
+    second = "name = 'normalised'\nconfig = { sicm_input = 'normalised' }\n"
+    path.write_text(group + group + second)
+    assert S.run(parse(["--plan", str(path), *SINCOS])) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--train-args: sicm_angles='sincos'" in err
+    assert err.rstrip().endswith("on the pair (FetchPush-v4, acder)")
+    assert not (tmp_path / "FetchPush-v4").exists()

@@ -673,3 +673,69 @@ def test_normalisers_are_fitted_on_her_relabelled_clipped_samples():
     np.testing.assert_allclose(tr.o_norm.mean, 200.0)
     assert np.all(np.abs(tr.g_norm.mean - 1.0) < 0.6)
     assert np.all(tr.g_norm.mean == tr.g_norm.mean[0])  # a row keeps or loses all 3
+
+
+@pytest.mark.parametrize("restart_goal", ["episode", "resample"])
+def test_a_restarted_episode_keeps_or_resamples_its_goal(restart_goal):
+    """Config.restart_goal: an episode restarted from a stored candidate pursues the
+    candidate's goal with 'episode', and with 'resample' (the default) the goal its
+    env's reset drew, never the stored one."""
+    from acder_lite import envs as E
+
+    tr = Trainer(tiny_config(method="acder", restart_goal=restart_goal))
+    env = tr.envs[0]
+    stored = np.array([1.25, 0.65, 0.55])  # a goal of our own: no reset draws it
+    tr.selector.pool.append(dict(state=E.get_state(env), goal=stored, r_int=0.0))
+    tr.selector.alpha = 1.0  # every episode restarts from the pool
+    ep = tr.collect()
+    assert ep["novel"].all()
+    np.testing.assert_array_equal(ep["g"][0, 0], env.goal.astype(np.float32))
+    if restart_goal == "episode":
+        np.testing.assert_array_equal(
+            ep["g"][0], np.tile(stored.astype(np.float32), (tr.T, 1))
+        )
+    else:
+        assert np.abs(ep["g"][0, 0] - stored).max() > 1e-3
+
+
+def test_a_resumed_run_keeps_counting_its_wall_time(tmp_path):
+    """wall_s is the run's training time across resumes: a resumed trainer starts from
+    its checkpoint's wall time, so progress.csv's wall_s never falls and done.json's
+    covers both stretches."""
+    import csv
+    import json
+
+    from acder_lite.io import load_torch
+
+    cfg = tiny_config(epochs=2, stop_patience=0)
+    run = tmp_path / "run"
+    Trainer(cfg, str(run)).train(False, max_cycles=3)
+    ckpt = load_torch(str(run / "checkpoint.pt"))
+    before = ckpt["progress"]["wall"]
+    assert before > 0
+    tr = Trainer(cfg, str(run))
+    tr.load_state_dict(ckpt)
+    assert tr.wall == before
+    tr.train(False)
+    with open(run / "progress.csv") as f:
+        walls = [float(r["wall_s"]) for r in csv.DictReader(f)]
+    assert len(walls) == 2 and walls[0] <= before < walls[1]
+    done = json.loads((run / "done.json").read_text())
+    assert done["wall_s"] == tr.wall > before
+
+
+def test_resuming_drops_the_rows_logged_after_the_checkpoint(tmp_path):
+    """Rows evaluated after the last checkpoint (mid-epoch evaluations of a run then
+    interrupted) are no part of the resumed run: resuming rewrites progress.csv to the
+    checkpoint's rows before it trains on."""
+    from acder_lite.io import load_torch
+
+    cfg = tiny_config(epochs=2, cycles=3, eval_every_cycles=1, stop_patience=0)
+    run = tmp_path / "run"
+    Trainer(cfg, str(run)).train(False, max_cycles=5)  # checkpoint at cycle 3
+    cycles = lambda: [r["cycle"] for r in rows_of(run / "progress.csv")]  # noqa: E731
+    assert cycles() == ["1", "2", "3", "4", "5"]
+    tr = Trainer(cfg, str(run))
+    tr.load_state_dict(load_torch(str(run / "checkpoint.pt")))
+    tr.train(False, max_cycles=3)  # resumed, and paused before a cycle more
+    assert cycles() == ["1", "2", "3"]
