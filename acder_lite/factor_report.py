@@ -26,6 +26,12 @@ CORNERS = np.array([[1, 1, 1, 0], [-1, 1, 1, 0]])
 away from it (the gripper component last, 0)."""
 
 
+def _from_origin(goal, u) -> np.ndarray:
+    """Eq. 6 of each action of `u` towards `goal`, the gripper at the origin."""
+    k = len(u)
+    return goal_oriented_factor(np.zeros((k, 3)), np.tile(goal, (k, 1)), u)
+
+
 def action(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
     """A unit gripper displacement turned `azimuth_deg` from +x in the horizontal plane
     and `elevation_deg` up from it, as a 4-component action (the gripper's own
@@ -39,11 +45,7 @@ def rotated_actions(goal, azimuth=None) -> dict:
     (degrees; by default -180 to 180 in steps of 1), the gripper at the origin and
     `goal` ahead of it along +x: {"angle": |azimuth| (the angle to the goal), "lam"}."""
     az = np.linspace(-180, 180, 361) if azimuth is None else np.asarray(azimuth)
-    lam = goal_oriented_factor(
-        np.zeros((len(az), 3)),
-        np.tile(goal, (len(az), 1)),
-        np.stack([action(a, 0) for a in az]),
-    )
+    lam = _from_origin(goal, np.stack([action(a, 0) for a in az]))
     return dict(angle=np.abs(az), lam=lam)
 
 
@@ -61,16 +63,14 @@ def random_actions(goal, n: int, rng) -> dict:
     shape (n, 4)), the gripper at the origin: {"u": the actions, "lam": Eq. 6 of each
     towards `goal`, "angle": each one's `angle_to_goal`}."""
     u = rng.uniform(-1, 1, (n, 4))
-    lam = goal_oriented_factor(np.zeros((n, 3)), np.tile(goal, (n, 1)), u)
-    return dict(u=u, lam=lam, angle=angle_to_goal(goal, u))
+    return dict(u=u, lam=_from_origin(goal, u), angle=angle_to_goal(goal, u))
 
 
 def corner_factors(goal) -> np.ndarray:
     """Eq. 6 of the `CORNERS` directions towards `goal`, the gripper at the origin:
     for a goal along +x, 1 + arccos(1/sqrt(3)) / (2 pi) and 1 + arccos(-1/sqrt(3)) /
     (2 pi)."""
-    k = len(CORNERS)
-    return goal_oriented_factor(np.zeros((k, 3)), np.tile(goal, (k, 1)), CORNERS)
+    return _from_origin(goal, CORNERS)
 
 
 def lam_vs_random(lam_batch: float, lam_random: float) -> str:

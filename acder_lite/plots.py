@@ -668,8 +668,8 @@ def factor_against_block(axes, f: dict):
     moved, angle = f["moved"], f["angle"]
     ax = axes[0]
     labels = ["block still at the goal's step", "block moved"]
-    ax.hist([angle[~moved], angle[moved]], bins=36, range=(0, 180), stacked=True,
-            label=labels)  # fmt: skip
+    split = [angle[~moved], angle[moved]]
+    ax.hist(split, bins=36, range=(0, 180), stacked=True, label=labels)
     ax.set_xlabel(r"angle between gripper $\to g^h$ and gripper $\to$ block (deg)")
     ax.set_yscale("log")
     ax.set_ylabel("rows")
