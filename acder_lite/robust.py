@@ -118,15 +118,16 @@ class Bench:
     ):
         self.env_id, self.obs, self.trials, self.seed = env_id, obs, trials, seed
         self.envs = [E.make_env(env_id, seed=seed + i) for i in range(trials)]
-        self.start = [(E.get_state(e), E.env_rng_state(e)) for e in self.envs]
+        self.start = [E.env_rng_state(e) for e in self.envs]
         self.layout = Layout.of(self.envs[0], obs)
         self.T = E.horizon(env_id)
 
     def rollout(self, act, setting: dict, log: list | None = None) -> dict:
         """One episode per trial under `setting` (every knob; `nominal()` for none): the
         arrays of `run_episodes` (true observations and goals, the applied actions)."""
-        for env, (state, rng) in zip(self.envs, self.start):
-            E.set_state(env, state)  # the warm start too: no level sees the last one
+        # the same trials at every level: each env's random stream back to its start;
+        # run_episodes' reset (mj_resetData) clears the last level, warm start too
+        for env, rng in zip(self.envs, self.start):
             E.set_env_rng_state(env, rng)
         rng = np.random.default_rng([NOISE_STREAM, self.seed])
         with contextlib.ExitStack() as stack:

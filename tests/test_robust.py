@@ -523,3 +523,25 @@ def test_success_needs_every_block_within_the_tolerance():
     assert success(ag, g, 0.05).tolist() == [True, False, False]
     one = np.array([[0.0, 0.03, 0.0399], [0.0, 0.03, 0.0401]])  # 4.99 and 5.01 cm
     assert success(one, np.zeros((2, 3)), 0.05).tolist() == [True, False]
+
+
+def test_a_level_does_not_see_the_level_rolled_out_before_it():
+    """Push, where contacts make the solver's warm start matter: the nominal trials
+    rolled out after a friction level are the nominal trials rolled out first, bit for
+    bit (run_episodes' reset clears the last level's state, warm start included)."""
+
+    def push(o, g):  # toward the block, then through it toward the goal
+        u = np.zeros((len(o), 4), np.float32)
+        u[:, :3] = np.clip(10 * (o[:, 3:6] - o[:, :3]) + 5 * (g - o[:, 3:6]), -1, 1)
+        return u
+
+    bench = Bench("FetchPush-v4", trials=2, seed=1)
+    try:
+        first = bench.rollout(push, nominal())
+        bench.rollout(push, {**nominal(), "friction": 0.3})
+        again = bench.rollout(push, nominal())
+    finally:
+        bench.close()
+    assert first.keys() == again.keys()
+    for k in first:
+        assert np.array_equal(first[k], again[k]), k
