@@ -98,8 +98,10 @@ def _still_training(rs: list[RatioStat], cells: list[CellStat]) -> list[str]:
         if not (_read(r) or _bounded(r)) or her is None or acder is None:
             continue
         if not (complete(her) and complete(acder)):
+            # of the seeds planned, or without a plan the seeds read (trap: not `done`,
+            # which would say "2 of 2" of a cell whose third seed is still training)
             counts = [
-                f"{name} {c.done} of {c.planned if c.planned is not None else c.done}"
+                f"{name} {c.done} of {max(c.planned or 0, c.n)}"
                 for name, c in (("HER", her), ("ACDER", acder))
             ]
             seeds = "seed" if counts[0].endswith(" of 1") else "seeds"

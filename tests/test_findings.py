@@ -300,3 +300,72 @@ def test_after_colon_lowers_an_ordinary_first_word_only():
     her, acder = curve_cell("her", [0.0, 0.5, 1.0, 1.0]), curve_cell("acder", [1.0] * 4)
     said = F.after_colon(F.first_sentence([her, acder], tasks=(P,)))
     assert said.startswith("on Push DDPG+ACDER comes first")
+
+
+def test_verdict_counts_a_paper_ratio_at_the_intervals_end_as_inside():
+    """The interval is closed: the paper's 5.3 at its upper end is inside it."""
+    r = RE.RatioStat(P, 4.0, low=3.0, high=5.3, paper=5.3)
+    assert F.verdict([r]) == (
+        "The paper's HER/ACDER ratio lies inside our 95% interval on Push (5.3 "
+        "against our 4.0). Our runs are consistent with the paper's factor on every "
+        "task with a ratio."
+    )
+
+
+def test_a_bound_equal_to_the_papers_ratio_says_the_advantage_is_larger():
+    """HER did not cross within its budget, so its crossing and the ratio lie above
+    the bound: a bound of 5.3 against the paper's 5.3 already exceeds it."""
+    r = RE.RatioStat(P, None, bound=5.3, paper=5.3, why="HER not within budget")
+    assert F.verdict([r]).endswith(
+        "bounded below by 5.3, which is above the paper's 5.3: there ACDER's "
+        "advantage over HER is larger here than in the paper."
+    )
+
+
+def test_capped_sentence_divides_by_acders_fastest_seed():
+    """Reach (100%): HER's two seeds at 100% from epoch 2 (crossing 2.0); ACDER's seed
+    0 from epoch 1, seed 1 from epoch 2. The largest resample ratio is HER's 2.0 over
+    ACDER's fastest seed's 1.0 = 2.0 (not over its slower seed's 2.0)."""
+    R = "FetchReach-v4"
+    runs = _runs("her", [0.5, 1.0, 1.0, 1.0], env=R)
+    runs += _runs("acder", [1.0] * 4, env=R)
+    runs[3]["rows"] = [dict(r, test_success=1.0) for r in runs[3]["rows"]]
+    runs[3]["rows"][0]["test_success"] = 0.5
+    cells = RE.summarize(runs, n_boot=50)
+    v = F.verdict(RE.ratios(cells, tasks=(R,)), cells)
+    assert "could not contain a ratio above about 2.0 (DDPG+HER's crossing" in v
+
+
+def test_grid_state_counts_a_held_cell_only_while_seeds_are_missing():
+    grid = RE.grid_cells()
+    cells = [
+        RE.CellStat(env=e, name=n, method=n, threshold=0.95, planned=3, n=3, done=3)
+        for e, n in grid
+    ]
+    cells[0].hold = "the readings"  # every planned seed in: nothing held back
+    assert "on hold" not in F.grid_state(cells)
+    cells[0].n = cells[0].done = 1
+    assert ", and 1 cell is on hold until the readings below are in." in (
+        F.grid_state(cells)
+    )
+
+
+def test_first_sentence_names_a_method_crossing_with_acder():
+    """DDPG+HER+ICM's mean curve crosses at ACDER's 1.9 epochs: ACDER is not first,
+    and equal crossings are never separated."""
+    her, acder = her_acder_cells()
+    icm = curve_cell("her-icm", [0.5, 1.0, 1.0, 1.0])
+    assert F.first_sentence([her, acder, icm], tasks=(P,)) == (
+        "On Push DDPG+ACDER does not come first: DDPG+HER+ICM crosses at the same "
+        "point (not separated by the rule)."
+    )
+
+
+def test_still_training_without_a_plan_counts_the_seeds_read():
+    """No plan file: HER has three seeds read, one still training. The verdict says
+    "HER 2 of 3 seeds", not "2 of 2", which would call the cell complete."""
+    runs = _runs("her", [0.0, 0.5, 1.0, 1.0]) + _runs("acder", [0.5, 1.0, 1.0, 1.0])
+    runs.append({**runs[0], "seed": 2, "ended": None})
+    cells = RE.summarize(runs, n_boot=50)
+    text = F.verdict(RE.ratios(cells, tasks=(P,)), cells)
+    assert text.startswith("So far (Push: HER 2 of 3 seeds, ACDER 2 of 2): ")

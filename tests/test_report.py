@@ -356,3 +356,43 @@ def test_made_up_seed_carries_a_stopped_seed_to_the_budget_only():
     assert list(stopped.carried) == [False] * 3 + [True] * 3
     full = R.made_up_seed([0.1, 0.96, 1.0], "budget", budget=6)
     assert list(full.x) == [1, 2, 3] and list(full.y) == [0.1, 0.96, 1.0]
+
+
+def test_ratio_boot_ranks_each_pair_by_hand():
+    """HER / ACDER per resample pair: 2 / 1 = 2; ACDER never crossing: 0 (ranked
+    first); HER never crossing: inf (ranked last); neither: NaN (left out)."""
+    h = np.array([2.0, 3.0, math.inf, math.inf])
+    a = np.array([1.0, math.inf, 1.0, math.inf])
+    np.testing.assert_array_equal(R.ratio_boot(h, a), [2.0, 0.0, math.inf, math.nan])
+
+
+def test_a_cells_budget_is_its_longest_seeds():
+    """Seed A (budget 8) stopped at epoch 6, seed B ran a budget of 10: the cell's
+    budget is 10, and A is carried to it, so the mean curve reaches epoch 10."""
+    c = R.cell_stat(
+        "FetchPush-v4",
+        "her",
+        [run(0, A, "stop rule", budget=8), run(1, B, "budget", budget=10)],
+        n_boot=50,
+    )
+    assert (c.budget_epochs, c.evaluated_epochs) == (10.0, 10.0)
+
+
+def test_earliest_crossing_counts_the_planned_seeds():
+    """Two seeds still training at 0.5, 0.8, 0.85 (epochs 1-3). Of 2 seeds the mean
+    reaches 95% only with each at 1 - 2 x 0.05 = 0.9, not reached yet: not before
+    epoch 3. Of the 5 planned, each must be at 1 - 5 x 0.05 = 0.75, which the seeds
+    reach at 1 + 0.25 / 0.3 = 1.833 epochs."""
+    runs = [run(s, [0.5, 0.8, 0.85], None) for s in (0, 1)]
+    assert R.cell_stat("FetchPush-v4", "her", runs, n_boot=20).earliest == 3.0
+    planned = R.cell_stat(
+        "FetchPush-v4", "her", runs, planned=dict(seeds=5, hold=""), n_boot=20
+    )
+    assert planned.earliest == pytest.approx(1 + 0.25 / 0.3)
+
+
+def test_a_crossing_at_the_end_of_the_others_interval_is_inside_it():
+    """(b) crosses at 2.5, the upper end of (a)'s interval [1.5, 2.5]: inside it, so
+    the two are not separated, though (a) lies outside (b)'s [2.5, 3.0]."""
+    a, b = push_cell("a", 2.0, 1.5, 2.5), push_cell("b", 2.5, 2.5, 3.0)
+    assert R.separated(a, b) is False and R.choose(a, b, "b") == ("b", False)

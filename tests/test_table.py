@@ -780,3 +780,68 @@ def test_load_folder_and_planned_folder_read_what_is_there(results, tmp_path):
     planned = RU.planned_folder(results / "plan.toml", results)
     assert planned == RU.planned_cells(results / "plan.toml", results)
     assert planned[(P, "her")]["seeds"] == 3
+
+
+def test_a_curve_evaluated_up_to_its_earliest_crossing_says_no_more():
+    """A seed still training below the level counts with its last evaluation, so the
+    earliest crossing is often where the mean curve ends (epoch 4): "not before 1,600"
+    would only repeat "evaluated to epoch 4"."""
+    c = push_cell("her-per", None, None, None)
+    c.why, c.evaluated_epochs, c.earliest = "not yet", 4.0, 4.0
+    assert T.mean_text(c) == "not yet (evaluated to epoch 4)"
+
+
+def test_not_within_budget_names_the_papers_budget_only_when_ours_is_shorter():
+    """Push's budget is 50 epochs in the paper: a run of 25 cannot say "never", one of
+    50 can, and its text names no second budget."""
+    c = push_cell("her", None, None, None)
+    c.why, c.budget_epochs = "not within budget", 50.0
+    assert T.mean_text(c) == "not within budget (50 epochs)"
+    c.budget_epochs = 25.0
+    assert T.mean_text(c) == "not within budget (25 epochs of the paper's 50)"
+
+
+def test_seeds_text_says_on_hold_only_while_planned_seeds_are_missing():
+    c = push_cell("her-per", None, None, None)
+    c.planned, c.hold, c.n, c.done = 3, "until the readings are in", 1, 1
+    assert T.seeds_text(c) == "1 done / 3 planned (on hold)"
+    c.n = c.done = 3  # every planned seed is in: the hold no longer says anything
+    assert T.seeds_text(c) == "3 done / 3 planned"
+
+
+def test_ratio_text_writes_its_interval_low_end_first():
+    r = RE.RatioStat(P, 2.0, low=1.8, high=3.5, paper=5.3)
+    assert T.ratio_text(r) == "2.0 [1.8 – 3.5]"
+    r.high = math.inf  # HER never crossing in the upper 2.5% of resample pairs
+    assert T.ratio_text(r) == "2.0 [1.8 – ∞]"
+
+
+def test_progress_with_a_repeated_episode_count_is_refused(tmp_path):
+    """Two evaluations at 400 episodes: no training between them, not a curve."""
+    path = tmp_path / "progress.csv"
+    path.write_text("epoch,episodes,test_success\n1,400,0.5\n2,400,0.6\n")
+    with pytest.raises(RU.RunError, match="episodes '400' is not above line 2's"):
+        RU.read_progress(path)
+
+
+def test_a_hidden_run_folder_is_not_read(tmp_path):
+    """A run folder whose own name starts with '.' (a copy put aside) is left out."""
+    kept = make_run(tmp_path, P, "her", 0, [0.5, 0.6])
+    make_run(tmp_path / P / "her" / ".seed1", P, "her", 1, [0.5], name_dir=False)
+    assert RU.find_run_dirs(tmp_path) == [kept]
+    assert [r["seed"] for r in RU.load_runs(tmp_path)] == [0]
+
+
+def test_a_runs_budget_is_its_first_commands_epochs(tmp_path):
+    """Started with --epochs 10, ended at epoch 3 by a resume (config.json: 3): its
+    budget is 10 epochs of 400 episodes."""
+    make_run(
+        tmp_path, P, "her", 0, [0.5, 0.6, 0.7], epochs=3, done="budget",
+        command="train --epochs 10",
+    )  # fmt: skip
+    (run,) = RU.load_runs(tmp_path)
+    assert (run["planned_epochs"], run["budget_epochs"], run["budget"]) == (
+        10,
+        10.0,
+        4000.0,
+    )
