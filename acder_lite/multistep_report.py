@@ -21,6 +21,7 @@ from .book_utils import percent, percent_range
 from .config import TASK_PRESETS
 from .multistep import ENV_ID
 from .trial_stats import wilson_interval
+from .words import and_join
 
 METHODS = {"her": "DDPG+HER", "acder": "DDPG+ACDER"}
 """The methods chapter 9 runs on the task, by run folder name, with their labels, in the
@@ -57,12 +58,12 @@ def task_plan(path, env: str = ENV_ID, labels: dict | None = None):
 def plan_words(cells: list, env: str = ENV_ID) -> dict[str, str]:
     """What the chapter glues about the planned `cells` of `env` (`task_plan`):
     plan_epochs, the most epochs a cell plans (0 without cells); plan_share, their
-    share of the paper's; plan_seeds ("seeds 0 and 1", "no seed yet"); seeds_note, what
-    that many seeds make of a curve."""
+    share of the paper's; plan_seeds ("seed 0", "seeds 0, 1 and 2", "no seed yet");
+    seeds_note, what that many seeds make of a curve."""
     most = max((c.epochs for c in cells), default=0)
     seeds = sorted({c.seed for c in cells})
     n = len(seeds)
-    words = f"seed{'s' if n > 1 else ''} " + " and ".join(map(str, seeds))
+    words = f"seed{'s' if n > 1 else ''} " + and_join([str(s) for s in seeds])
     return dict(
         plan_epochs=f"{most}",
         plan_share=f"{most / TASK_PRESETS[env]['epochs']:.0%}",
@@ -230,7 +231,7 @@ def best_sentence(progress: dict[str, list[dict]], threshold: float) -> str:
     hit = [lab for lab, v in best.items() if v >= threshold]
     if not hit:
         return f"No run reached the {threshold:.0%} threshold at any evaluation."
-    return f"Runs of {', '.join(hit)} reached the {threshold:.0%} threshold."
+    return f"Runs of {and_join(hit)} reached the {threshold:.0%} threshold."
 
 
 def versus_chance(k: int, n: int, chance: float, z: float = 1.96) -> str:

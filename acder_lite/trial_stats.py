@@ -25,7 +25,11 @@ def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     p = k / n
     mid = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    return mid - half, mid + half
+    # trap: in floats mid -/+ half miss 0 at k = 0 and 1 at k = n by ~1e-17 either
+    # way (0 of 11 would be "above" a chance of 0): those ends are exact
+    lo = 0.0 if k == 0 else max(mid - half, 0.0)
+    hi = 1.0 if k == n else min(mid + half, 1.0)
+    return lo, hi
 
 
 def told_apart(a: tuple[int, int], b: tuple[int, int], z: float = 1.96) -> bool:

@@ -145,3 +145,25 @@ def test_separated_sentence_says_one_side_is_tested_at_100_percent():
         "crossings: a later crossing always lies outside the earlier one's interval, "
         "so only one side of the rule is tested."
     )
+
+
+def test_ablation_sentence_reads_a_tie_with_full_acder_as_no_later():
+    """An ablation whose mean curve crosses where full ACDER's does (1.9 epochs, 760
+    episodes) is not later: it is named under "no later", not left unsaid."""
+    acder = curve_cell("acder", [0.5, 1.0, 1.0, 1.0])
+    tie = curve_cell("acder-no-curiosity", [0.5, 1.0, 1.0, 1.0])
+    s = AF.ablation_sentence([acder, tie], P)
+    assert (
+        "No ablation crosses later than full ACDER (mean curves); no later: ACDER w/o "
+        "curiosity." in s
+    ), s
+
+
+def test_ablation_sentence_a_tie_with_her_does_not_cross_before_it():
+    """An ablation crossing where DDPG+HER does (2.9 epochs) does not cross before it;
+    one at 1.9 does."""
+    her, acder = her_acder_cells()
+    tie = curve_cell("acder-no-curiosity", [0.0, 0.5, 1.0, 1.0])
+    fast = curve_cell("acder-no-start-states", [0.5, 1.0, 1.0, 1.0])
+    s = AF.ablation_sentence([her, acder, tie, fast], P)
+    assert "Crosses before DDPG+HER (mean curves): ACDER w/o start states." in s, s

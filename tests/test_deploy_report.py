@@ -154,3 +154,58 @@ def test_policy_clips_as_the_policy_records_them_else_the_training_defaults():
 
     assert policy_clips(dict(clip_obs=5.0, norm=dict(clip=3.0))) == (5.0, 3.0)
     assert policy_clips(None) == (Config().clip_obs, Config().norm_clip)
+
+
+def test_full_state_sentence_without_a_stand_in_names_the_unfinished_tasks():
+    """No stand-in, but a task with no finished full-state policy: the sentence must
+    not say every task's policy is the grid's own run."""
+    R, P = "FetchReach-v4", "FetchPush-v4"
+    folders = {R: f"results/{R}/acder/seed0", P: None}
+    assert full_state_sentence(folders) == (
+        "On Reach the full-state policy is the grid's run; on Push no full-state "
+        "policy has finished."
+    )
+
+
+def test_training_facts_read_the_threshold_and_patience_of_the_runs_stop_rule():
+    """done.json's stop rule (0.90, 3 evaluations) comes before the run's config.json
+    (0.95, 5): the crossing of 0.90 between 0.8 at 800 episodes and 1.0 at 1,200 is
+    read halfway, 800 + 400 * (0.9 - 0.8) / (1.0 - 0.8) = 1,000."""
+    run = _run([0.5, 0.8, 1.0, 1.0, 1.0], "stop rule", "success held")
+    run["done_info"]["stop_rule"] = dict(success_threshold=0.9, patience=3)
+    assert training_facts(run) == dict(
+        crossed="first reached 0.90 at 1,000 episodes",
+        ended="stopped once it had held 0.90 for 3 evaluations, after 5 epochs "
+        "(2,000 episodes)",
+    )
+
+
+def test_a_run_of_one_epoch_reads_1_epoch():
+    """'1 epoch (400 episodes)': the noun follows the epochs, not the episodes."""
+    assert training_facts(_run([0.3], None, None))["ended"] == (
+        "is still training (1 epoch (400 episodes) so far, at 0.30)"
+    )
+
+
+def test_lengths_sentence_compares_the_episodes_not_the_epochs():
+    """Two runs of 4 epochs each, one of 400 episodes an epoch (1,600) and one of 200
+    (800), did not train as long."""
+    full = _run([0.2, 0.4, 0.6, 0.8], "budget", "budget")
+    simplified = _run([0.2, 0.4, 0.6, 0.8], "budget", "budget", per_epoch=200)
+    assert lengths_sentence(
+        "FetchPush-v4", {"full state": full, "simplified state": simplified}
+    ) == (
+        "The Push policies did not train as long: the full-state one 4 epochs (1,600 "
+        "episodes), the simplified-state one 4 epochs (800 episodes), so a "
+        "difference between their columns is one of training as well as of state."
+    )
+
+
+def test_lengths_sentence_at_equal_episodes_in_epochs_of_another_size():
+    """4 epochs of 400 episodes and 8 of 200: as long, and the sentence names the
+    1,600 episodes only (not the first run's "4 epochs" for both)."""
+    long = _run([0.2, 0.4, 0.6, 0.8], "budget", "budget")
+    short = _run([0.1] * 8, "budget", "budget", per_epoch=200)
+    assert lengths_sentence("FetchPush-v4", {"a": long, "b": short}) == (
+        "The Push policies trained as long, 1,600 episodes each."
+    )

@@ -562,3 +562,37 @@ def test_pool_positions_read_each_stored_state_and_count_the_distinct_ones():
 
     with pytest.raises(ConfigError, match="no start-state pool"):
         D.pool_positions(Trainer(tiny_config(env="FetchPush-v4", method="her")))
+
+
+def test_curiosity_profile_shares_at_the_clip_among_successful_rows_only():
+    """`share_at_clip_successful` counts the rows of successful episodes only: with
+    every such row past the clip and every other row below it, it is 1.0, while the
+    share of all rows is that of the successful rows."""
+    tr = Trainer(tiny_config(env="FetchReach-v4", method="acder"))
+    tr.train_cycle()
+    buf = tr.buffer
+    buf.success[: buf.n] = np.arange(buf.n) % 2 == 0  # every other episode succeeded
+    b = tr.sample_batch()
+    ok = buf.success[b["ep"]].astype(bool)
+    assert 0 < ok.sum() < len(ok)  # both kinds of rows in the minibatch
+    eta = tr.cfg.eta
+    err = torch.tensor(np.where(ok, 2 * eta, 0.0), dtype=torch.float32)
+    tr.sample_batch = lambda: b  # the same minibatch each time
+    tr.curiosity.errors = lambda x, u, x2: (err, x2)  # S-ICM's error, made by hand
+    c = D.curiosity_profile(tr, batches=2)
+    assert c["rows"] == 2 * len(ok) and c["successful_rows"] == 2 * ok.sum()
+    assert c["share_at_clip_successful"] == 1.0
+    assert c["share_at_clip"] == pytest.approx(ok.mean())
+
+
+def test_motion_stats_share_of_episodes_with_a_wrap_by_hand():
+    """4 still episodes of 5 steps whose yaw jumps 3 -> -3 rad (a wrap): once in
+    episode 0, twice in episode 1, never in 2 and 3. Wraps at 3 of the 20 steps
+    (0.15), in 2 of the 4 episodes (0.5)."""
+    ag, velr = np.zeros((4, 6, 3)), np.zeros((4, 5, 3))
+    rot = np.zeros((4, 6, 3))
+    rot[0, :, 2] = [3, 3, 3, -3, -3, -3]
+    rot[1, :, 2] = [3, -3, 3, 3, 3, 3]
+    m = D._motion_stats(ag, velr, 0.04, rot)
+    assert m["wrap_step_share"] == pytest.approx(0.15)
+    assert m["wrap_episode_share"] == 0.5

@@ -238,3 +238,38 @@ def test_control_found_places_the_constant_seed_by_seed():
     )
     training = curve_cell("her-bonus", [1.0] * 4, ended=None)
     assert EF.control_found(her, icm, training) == ""
+
+
+def test_control_sentence_when_icm_ties_her():
+    """DDPG+HER+ICM crossing where DDPG+HER does (2.9 epochs) gains nothing: no share
+    of a zero gain is computed, whether the constant crosses (2.5 epochs) or not."""
+    her, icm = (
+        curve_cell("her", [0.0, 0.5, 1.0, 1.0]),
+        curve_cell("her-icm", [0.0, 0.5, 1.0, 1.0]),
+    )
+    bonus = curve_cell("her-bonus", [0.0, 0.9, 1.0, 1.0])
+    s = EF.control_sentence(her, icm, bonus)
+    assert s.endswith("so there is no gain of curiosity for the constant to explain.")
+    never = curve_cell("her-bonus", [0.0, 0.2, 0.5, 0.6])
+    s = EF.control_sentence(her, icm, never)
+    assert (
+        "so the constant alone saves nothing (DDPG+HER+ICM is no faster than "
+        "DDPG+HER)." in s
+    ), s
+
+
+@pytest.mark.parametrize("bonus", ["her-icm", "her"])
+def test_control_found_reads_ties_at_either_end_as_between(bonus):
+    """The constant's seeds equal to ICM's (1.9 epochs, the fastest) or to HER's (2.9,
+    the slowest) lie between the two, at its ends: neither earlier than every seed of
+    ICM nor later than every seed of HER."""
+    her, icm = (
+        curve_cell("her", [0.0, 0.5, 1.0, 1.0]),
+        curve_cell("her-icm", [0.5, 1.0, 1.0, 1.0]),
+    )
+    values = {"her-icm": [0.5, 1.0, 1.0, 1.0], "her": [0.0, 0.5, 1.0, 1.0]}[bonus]
+    same = curve_cell("her-bonus", values)
+    assert EF.control_found(her, icm, same).startswith(
+        "The constant's seeds lie between the fastest seed of DDPG+HER+ICM and the "
+        "slowest of DDPG+HER"
+    )

@@ -439,3 +439,17 @@ def test_update_takes_eq2s_target_from_the_target_actor():
     out = agent.update(b, (-50.0, 0.0))
     np.testing.assert_allclose(out["td"].numpy(), [-1.0, 0.0, -1.0, -1.0], atol=1e-6)
     assert out["critic_loss"].item() == pytest.approx(0.75, rel=1e-6)
+
+
+def test_icms_forward_loss_does_not_move_the_features():
+    """Departure 9: only the inverse loss trains the encoder phi. With beta = 1 the
+    loss is the forward loss alone: a step moves the forward model and leaves phi as
+    it was (Adam's step of a zero gradient is zero)."""
+    torch.manual_seed(5)
+    m = ICM(5, 2, feat_dim=4, hidden=16, beta=1.0)
+    s, a, s2 = torch.randn(8, 5), torch.randn(8, 2), torch.randn(8, 5)
+    phi = [p.detach().clone() for p in m.phi.parameters()]
+    fwd = [p.detach().clone() for p in m.forward_model.parameters()]
+    m.step(s, a, s2)
+    assert all(torch.equal(p, q) for p, q in zip(m.phi.parameters(), phi))
+    assert not all(torch.equal(p, q) for p, q in zip(m.forward_model.parameters(), fwd))

@@ -1,6 +1,8 @@
 """Chapter 9's reading of the multi-step Push runs (acder_lite.multistep_report): the
 plan, each method's progress, the chance level and the sentences the chapter glues."""
 
+import dataclasses
+
 import pytest
 
 from acder_lite import multistep_report as MR
@@ -47,6 +49,11 @@ def test_best_sentence_says_whether_any_run_reached_the_threshold():
     )
     runs["DDPG+ACDER"].append(seed(0.96, 0.9, 2))
     assert best_sentence(runs, 0.95) == "Runs of DDPG+ACDER reached the 95% threshold."
+    runs["DDPG+HER"].append(seed(0.95, 0.9, 1))
+    runs["DDPG+X"] = [seed(1.0)]
+    assert best_sentence(runs, 0.95) == (
+        "Runs of DDPG+HER, DDPG+ACDER and DDPG+X reached the 95% threshold."
+    )
     assert best_sentence({"DDPG+HER": []}, 0.95) == ""
 
 
@@ -191,6 +198,8 @@ def test_plan_words_follow_the_cells(tmp_path):
     assert (one["plan_epochs"], one["plan_share"]) == ("40", "10%")
     assert one["plan_seeds"] == "seed 0"
     assert one["seeds_note"] == "With one seed a curve is one draw"
+    three = [dataclasses.replace(cells[0], seed=k) for k in (2, 0, 1)]
+    assert plan_words(three)["plan_seeds"] == "seeds 0, 1 and 2"
     none = plan_words([])
     assert (none["plan_seeds"], none["plan_epochs"]) == ("no seed yet", "0")
     assert none["seeds_note"] == "With no seed planned there is no curve yet"
@@ -266,3 +275,39 @@ def test_acder_note_reads_each_acder_run_against_chance():
     early = a_run("acder", [0.0], **cols)  # epoch 1 only: no parts to average yet
     fallback = "There is no DDPG+ACDER run to read yet."
     assert acder_note([early], 0.0) == acder_note(runs[:1], 0.0) == fallback
+
+
+def test_best_sentence_counts_a_best_exactly_at_the_threshold():
+    """The threshold is reached at or above it (as the stop rule reads it): a best of
+    exactly 0.95 reached 95%."""
+    assert best_sentence({"DDPG+HER": [seed(0.95)]}, 0.95) == (
+        "Runs of DDPG+HER reached the 95% threshold."
+    )
+
+
+def test_versus_chance_at_the_edges_of_the_interval_is_at():
+    """Above or below only when the whole interval lies beyond the chance level: an
+    interval that ends exactly at it is 'at'."""
+    from acder_lite.trial_stats import wilson_interval
+
+    lo, hi = wilson_interval(21, 3200)
+    assert versus_chance(21, 3200, lo) == "at"
+    assert versus_chance(21, 3200, hi) == "at"
+
+
+def test_evaluation_counts_round_a_test_success_to_its_count():
+    """0.29 of 100 test episodes (25 a worker, 4 workers) is 29 successes, though
+    0.29 * 100 is 28.999999999999996 in floats: rounded, not truncated."""
+    run = dict(
+        config=dict(test_episodes=25, workers=4),
+        rows=[dict(test_success=0.29), dict(test_success=0.57)],
+    )
+    assert 0.29 * 100 < 29 and 0.57 * 100 < 57
+    assert evaluation_counts(run) == (29 + 57, 200)
+
+
+def test_no_success_is_at_a_chance_of_zero_and_every_success_at_one():
+    """The Wilson interval's exact ends: 0 of 11 is at a chance level of 0 (in floats
+    its lower end was 2.8e-17, "above"), 6 of 6 at a chance level of 1."""
+    assert MR.versus_chance(0, 11, 0.0) == "at"
+    assert MR.versus_chance(6, 6, 1.0) == "at"

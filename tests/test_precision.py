@@ -96,3 +96,26 @@ def test_the_chapters_first_cell_says_which_precision_trains(
         "ACDER_FAST=1: cycles=8",
         f"network updates in {want} on this CPU (auto: probe)",
     ]
+
+
+def test_native_bf16_reads_cpuinfo_only_where_torch_finds_nothing(monkeypatch):
+    """torch's probes first; where they find nothing (or this torch lacks them), the
+    flags of /proc/cpuinfo decide; where a probe finds AMX, cpuinfo is not read."""
+    import io
+
+    import torch
+
+    for probe in ("_is_avx512_bf16_supported", "_is_amx_tile_supported"):
+        monkeypatch.setattr(torch.cpu, probe, lambda: False, raising=False)
+
+    def cpuinfo(flags):
+        monkeypatch.setattr(
+            precision, "open", lambda path: io.StringIO(flags), raising=False
+        )
+
+    cpuinfo("flags\t\t: fpu sse2 avx512f avx512_bf16\n")
+    assert precision.native_bf16() == (True, "the CPU has AVX512-BF16")
+    cpuinfo("flags\t\t: fpu sse2 avx2\n")
+    assert precision.native_bf16()[0] is False
+    monkeypatch.setattr(torch.cpu, "_is_amx_tile_supported", lambda: True)
+    assert precision.native_bf16() == (True, "the CPU has AMX")

@@ -67,3 +67,15 @@ def test_episode_stats_on_hand_made_episodes():
     assert s["any_step"].tolist() == [True, True, True]
     assert s["moved"].tolist() == [False, True, True]
     env.close()
+
+
+def test_random_policy_draws_each_entry_uniform_in_minus_one_to_one():
+    """The random arm's actions are `rng.uniform(-1, 1)` row by row: the whole action
+    box, negative entries too, not only its positive half."""
+    from acder_lite.random_play import random_policy
+
+    u = random_policy(np.random.default_rng(7))(np.zeros((200, 10)), None)
+    np.testing.assert_array_equal(
+        u, np.random.default_rng(7).uniform(-1.0, 1.0, (200, 4))
+    )
+    assert u.min() < -0.9 and u.max() > 0.9  # 800 draws reach both ends of the box

@@ -168,3 +168,44 @@ def test_run_episodes_records_what_the_envs_did():
             E.set_state(env, ep["state"][i, t])
             o = env.unwrapped._get_obs()["observation"].astype(np.float32)
             np.testing.assert_array_equal(o, ep["o"][i, t])  # stored as float32
+
+
+def test_run_episodes_success_is_the_last_steps(monkeypatch):
+    """`success` is the env's verdict at the last step only: an env that succeeds at
+    every step but the last reads as failed, one that succeeds at the last step only
+    as a success. The verdicts are scripted: an env succeeds at a step whose action's
+    first component is above 0."""
+    from acder_lite import envs as E
+    from acder_lite.rollout import run_episodes
+
+    step = E.step
+    monkeypatch.setattr(E, "step", lambda env, a: (step(env, a)[0], bool(a[0] > 0)))
+    envs = [E.make_env("FetchReach-v4", seed=s) for s in (0, 1)]
+    T, t = 5, iter(range(5))
+
+    def act(o, g):
+        x = 0.5 if next(t) == T - 1 else -0.5  # > 0 at the last step only
+        return np.array([[x, 0, 0, 0], [-x, 0, 0, 0]], np.float32)
+
+    ep = run_episodes(envs, act, T)
+    assert ep["success"].tolist() == [True, False]
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_run_episodes_asks_for_the_starts_in_env_order(threads):
+    """`starts` draws from the trainer's one random stream (`Trainer._start`), so env
+    i must get the i-th draw, with or without a StepPool: the draws come in env order
+    0, 1, 2."""
+    from acder_lite import envs as E
+    from acder_lite.rollout import run_episodes
+
+    envs = [E.make_env("FetchReach-v4", seed=s) for s in range(3)]
+    asked = []
+
+    def starts(i):
+        asked.append(i)
+        return None
+
+    pool = StepPool(threads) if threads > 1 else None
+    run_episodes(envs, lambda o, g: np.zeros((len(o), 4), np.float32), 2, starts, pool)
+    assert asked == [0, 1, 2]

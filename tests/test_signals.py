@@ -122,3 +122,21 @@ def test_the_bytes_reach_the_disk_before_the_rename(tmp_path, monkeypatch):
     io.atomic_write(str(tmp_path / "a.json"), lambda f: f.write(b"12345"))
     assert calls == [("fsync", 5), ("replace", "a.json")]
     assert (tmp_path / "a.json").read_bytes() == b"12345"
+
+
+def test_the_first_signal_held_back_is_delivered_first(handlers):
+    """SIGTERM then SIGINT during the block: SIGTERM, the first, is the one delivered
+    once the block has ended (with Python's default handlers a `kill` ends the
+    process, a Ctrl-C raises KeyboardInterrupt)."""
+    got = []
+
+    def record(signum, frame):
+        got.append(signum)
+
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, record)
+    with signals.deferred():
+        os.kill(os.getpid(), signal.SIGTERM)
+        os.kill(os.getpid(), signal.SIGINT)
+        assert got == []  # held back
+    assert got[0] == signal.SIGTERM

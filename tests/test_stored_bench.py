@@ -160,3 +160,40 @@ def test_check_stored_reads_each_simplified_runs_robust_json(tmp_path):
     assert scope_sentence(whole, 4) == (
         "Every row that both benches ran is compared, on every trial."
     )
+
+
+def test_compare_stored_with_every_row_skipped_is_not_equal():
+    """A shorter bench whose only row has noise: nothing is compared, so the benches
+    are not called equal."""
+    stored = _hand_bench(4, {("obs_noise", 0.01): [1, 0, 0, 1]})
+    live = _hand_bench(2, {("obs_noise", 0.01): [1, 0]})
+    c = compare_stored(live, stored)
+    assert c["matched"] == [] and c["differing"] == []
+    assert not c["equal"] and not c["whole"]
+    assert c["sentence"] == (
+        "no row of the live bench can be compared with the stored one; 1 row cannot "
+        "be compared at 2 trials, `obs_noise` = 0.01 m (their noise draws depend on "
+        "the trial count)"
+    )
+
+
+def test_levels_of_one_knob_read_with_the_unit_of_the_last():
+    """Two levels of one knob share its unit, as the last reads it: '1, 2 steps', not
+    '1, 2 step'."""
+    more = {**STORED, ("action_delay", 1): [0, 0, 0, 0], ("action_delay", 2): [0] * 4}
+    c = compare_stored(_hand_bench(4, STORED), _hand_bench(4, more))
+    assert c["only_stored"] == [("action_delay", 1.0), ("action_delay", 2.0)]
+    assert c["sentence"].endswith("; only stored: `action_delay` = 1, 2 steps")
+
+
+def test_compare_stored_by_counts_when_the_stored_side_keeps_no_trials():
+    """A stored file without `trial_success` (the live bench has it): at the same N
+    the rows are compared by their success counts."""
+    stored = _hand_bench(4, STORED)
+    for r in stored["rows"]:
+        del r["trial_success"]
+    c = compare_stored(_hand_bench(4, STORED), stored)
+    assert c["equal"] and c["whole"] and len(c["matched"]) == 3
+    flipped = _hand_bench(4, {**STORED, ("mass", 2.0): [0, 0, 1, 1]})
+    (d,) = compare_stored(flipped, stored)["differing"]
+    assert (d["live"], d["stored"], d["trials"]) == (2, 3, None)

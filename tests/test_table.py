@@ -845,3 +845,19 @@ def test_a_runs_budget_is_its_first_commands_epochs(tmp_path):
         10.0,
         4000.0,
     )
+
+
+def test_words_sentence_leaves_out_empty_clauses():
+    """`sentence` joins only the clauses that say something: an empty one (a
+    finding with nothing to report) leaves no '; ;' behind."""
+    from acder_lite.words import sentence
+
+    assert sentence(["on Push a", "", "b"]) == "On Push a; b."
+    assert sentence(["", ""]) == ""
+
+
+def test_words_sentence_ends_with_one_full_stop():
+    """A last clause that already ends in a full stop gets no second one."""
+    from acder_lite.words import sentence
+
+    assert sentence(["a", "b ends here."]) == "A; b ends here."

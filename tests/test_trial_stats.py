@@ -15,7 +15,18 @@ def test_wilson_interval_hand_worked():
         0.91934, abs=1e-4
     )
     lo, hi = wilson_interval(20, 20)
-    assert hi == pytest.approx(1.0) and 0.8 < lo < 0.85
+    assert hi == 1.0 and 0.8 < lo < 0.85
+
+
+def test_wilson_interval_ends_are_exact_at_no_and_every_success():
+    """In floats mid - half at k = 0 comes out 2.8e-17 at n = 11 and -6.9e-18 at
+    n = 40, and mid + half at k = n = 6 a hair below 1: then no success in 11 would be
+    "above" a chance of 0 (multistep_report.versus_chance). The ends are exact."""
+    for n in range(1, 1001):
+        lo, hi = wilson_interval(0, n)
+        assert lo == 0.0 and 0.0 < hi < 1.0, n
+        lo, hi = wilson_interval(n, n)
+        assert hi == 1.0 and 0.0 < lo < 1.0, n
 
 
 def test_told_apart_and_the_gap_it_takes_at_20_trials():

@@ -127,3 +127,34 @@ def test_near_gimbal_lock_by_hand():
     assert W.near_gimbal_lock(rot, cos_below=0.3).tolist() == [[True, True]]
     rot[0, 1, 1] = -np.pi / 2  # the other side face
     assert W.near_gimbal_lock(rot).tolist() == [[True, True]]
+
+
+def test_sentence_reads_apart_either_way(tmp_path):
+    """The seeds' ranges are apart whichever kind wraps more: here every seed with a
+    curiosity bonus (0.20%, 0.40%) wraps less often than every seed without (3.00%)."""
+    _write(tmp_path, "FetchPush-v4", "acder", 0, "acder", 0.002, 0.05)
+    _write(tmp_path, "FetchPush-v4", "acder", 1, "acder", 0.004, 0.10)
+    _write(tmp_path, "FetchPush-v4", "her", 0, "her", 0.03, 0.4)
+    text = W.sentence(W.summarize(tmp_path), "FetchPush-v4")
+    assert "do not overlap (0.20% to 0.40% against 3.00%)" in text, text
+
+
+def test_buffer_sentence_says_no_candidate_is_a_wrap_in_the_plural():
+    """0 of 40 candidates "are wraps"; only a count of exactly 1 "is a wrap"
+    (round(0.025 * 40) = 1)."""
+    wraps = dict(share_of_rows=0.0, share_at_clip=None, candidates=40)
+    d = dict(
+        run="r",
+        method="acder",
+        episodes=400,
+        curiosity=dict(
+            rows=4096, share_at_clip=0.0, wraps=wraps | {"share_of_candidates": 0.0}
+        ),
+    )
+    assert "0 of the 40 start-state candidates the minibatches give are wraps." in (
+        W.buffer_sentence(d)
+    )
+    d["curiosity"]["wraps"]["share_of_candidates"] = 0.025
+    assert "1 of the 40 start-state candidates the minibatches give is a wrap." in (
+        W.buffer_sentence(d)
+    )
