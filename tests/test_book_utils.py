@@ -33,3 +33,33 @@ def test_percent_range_gives_both_ends_the_same_decimals():
 def test_vector_text_prints_no_negative_zero():
     assert vector_text([1.3634, -0.0001, -0.1384]) == "[ 1.363  0.000 -0.138]"
     assert vector_text([[-0.0, 0.26]], digits=1) == "[ 0.0  0.3]"
+
+
+def test_percent_range_up_to_a_whole_share_has_no_decimals():
+    """0 to 1: the nonzero end, 100%, needs no decimal for 2 significant digits (its
+    places, 2 - 1 - 2 = -1, are held at 0), so both ends are whole percents."""
+    from acder_lite.book_utils import percent_range
+
+    assert percent_range(0.0, 1.0) == "0% to 100%"
+    assert percent_range(1.0, 1.0) == "100% to 100%"
+
+
+def test_glue_hands_myst_nb_python_numbers_and_markdown(monkeypatch):
+    """A numpy scalar reaches `myst_nb.glue` as a Python number (numpy 2's repr,
+    `np.float64(0.5)`, breaks `{glue:text}`'s format spec), a string as Markdown, with
+    display off unless asked."""
+    import myst_nb
+    import numpy as np
+    from IPython.display import Markdown
+
+    from acder_lite.book_utils import glue
+
+    got = []
+    monkeypatch.setattr(myst_nb, "glue", lambda *a, **k: got.append((a, k)))
+    glue("x", np.float64(0.5))
+    glue("n", np.int64(3), display=True)
+    glue("s", "**b**")
+    (x, kx), (n, kn), (s, _) = got
+    assert x == ("x", 0.5) and type(x[1]) is float and kx == {"display": False}
+    assert n == ("n", 3) and type(n[1]) is int and kn == {"display": True}
+    assert isinstance(s[1], Markdown) and s[1].data == "**b**"

@@ -1,11 +1,13 @@
 """Bad input: one line naming the problem and what is allowed, exit code 2,
 no traceback."""
 
+import argparse
 import os
 import signal
 import subprocess
 import sys
 import time
+import types
 
 import pytest
 
@@ -672,3 +674,165 @@ def test_config_ranges_at_their_edges():
         with pytest.raises(ConfigError) as e:
             Config(**bad).validate()
         assert str(e.value).startswith(want), e.value
+
+
+def _fake_bench(monkeypatch, cycle_wall):
+    """bench.run_bench on a fake Trainer and clock: a training cycle takes
+    `cycle_wall[update_dtype]` s of wall time and 3 s of CPU, an evaluation 0.8 s of
+    CPU, an update 4 ms, a simulated episode batch 0.5 s; 0.2 GFLOP an update on a
+    100 GFLOP/s matmul."""
+    from acder_lite import bench, rollout, trainer
+
+    clock = dict(wall=0.0, cpu=0.0)
+
+    def spend(wall=0.0, cpu=0.0):
+        clock["wall"] += wall
+        clock["cpu"] += cpu
+
+    class FakeTrainer:
+        def __init__(self, cfg):
+            cfg.resolve()
+            self.cfg, self.device, self.T, self.dims = cfg, "cpu", 50, {"u": 4}
+            self.envs, self.pool = [None] * cfg.workers, None
+
+        def train_cycle(self):
+            spend(wall=cycle_wall[self.cfg.update_dtype], cpu=3.0)
+
+        def evaluate(self):
+            spend(cpu=0.8)
+
+        def update_step(self):
+            spend(wall=0.004)
+
+    monkeypatch.setattr(trainer, "Trainer", FakeTrainer)
+    monkeypatch.setattr(rollout, "run_episodes", lambda *a, **k: spend(wall=0.5))
+    fake_time = types.SimpleNamespace(
+        perf_counter=lambda: clock["wall"], process_time=lambda: clock["cpu"]
+    )
+    monkeypatch.setattr(bench, "time", fake_time)
+    monkeypatch.setattr(bench, "update_flops", lambda tr: 2e8)
+    monkeypatch.setattr(bench, "matmul_gflops", lambda *a, **k: 100.0)
+
+    def run(update_dtype):
+        args = argparse.Namespace(
+            env="FetchReach-v4", method="her", workers=2, threads=1, cycles=2,
+            update_dtype=update_dtype, device="cpu", compile_update=False,
+        )  # fmt: skip
+        return bench.run_bench(args)
+
+    return run
+
+
+def test_bench_line_derives_the_limit_share_and_grid_cost_from_its_timings(
+    monkeypatch, capsys
+):
+    """run_bench's arithmetic on a fake clock. FetchReach-v4 (10 cycles an epoch), 2
+    workers x 2 episodes = 4 episodes a cycle, 40 updates a cycle (10 an episode):
+    simulation 0.5 s per 2 episodes = 250 ms; 2 timed cycles of 2 s = 500 ms an
+    episode, of 3 s CPU = 750 ms, plus one 0.8 s evaluation shared by an epoch's
+    10 x 4 episodes = 20 ms: grid 770 ms. An update takes 4 ms for 0.2 GFLOP (50
+    GFLOP/s) on a 100 GFLOP/s matmul: 10 updates x 2 ms = 20 ms on top of simulation,
+    limit 270 ms, 270 / 500 = 0.54 of training."""
+    assert _fake_bench(monkeypatch, {"float32": 2.0})("float32") == 0
+    first, last = capsys.readouterr().out.strip().splitlines()
+    assert first.endswith("update_ms=4.0 update_gflop=0.20 update_share_of_matmul=0.50")
+    assert last.split() == [
+        "bench:",
+        "sim_ms_per_episode=250.0",
+        "train_ms_per_episode=500.0",
+        "ratio=2.00",
+        "update_gflops=50.0",
+        "matmul_gflops=100.0",
+        "limit_ms_per_episode=270.0",
+        "share_of_limit=0.54",
+        "grid_cpu_ms_per_episode=770.0",
+    ]
+
+
+def test_bench_both_dtypes_keeps_float32s_line(monkeypatch, capsys):
+    """--update-dtype both: bfloat16's cycles take 1 s (250 ms an episode) against
+    float32's 2 s (500 ms); the side line gives both, the bench line float32's."""
+    assert _fake_bench(monkeypatch, {"float32": 2.0, "bfloat16": 1.0})("both") == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[2] == (
+        "train_ms_per_episode float32=500.0 bfloat16=250.0 speedup=2.00 "
+        "(the bench line below is float32's)"
+    )
+    assert "train_ms_per_episode=500.0" in lines[-1].split()
+
+
+def test_eval_takes_seed_0(capsys):
+    """--seed 0 is within 'an integer >= 0': eval goes on to the checkpoint (here one
+    that is not there), so the error names the file, not the seed."""
+    from acder_lite.cli import main
+
+    assert main(["eval", "--checkpoint", "no-such.pt", "--seed", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "does not exist" in err and "--seed" not in err
+
+
+def test_eval_and_bench_parse_to_their_documented_defaults():
+    """The defaults eval's --help states (10 episodes, seed 12345) and bench's own
+    (FetchPush-v4 with HER, 4 workers, 6 cycles, 2 threads, auto precision)."""
+    from acder_lite.cli import build_parser
+
+    e = build_parser().parse_args(["eval", "--checkpoint", "x.pt"])
+    assert (e.episodes, e.seed, e.env) == (10, 12345, None)
+    b = build_parser().parse_args(["bench"])
+    assert (b.env, b.method, b.workers, b.cycles, b.threads) == (
+        "FetchPush-v4", "her", 4, 6, 2,
+    )  # fmt: skip
+    assert (b.update_dtype, b.device, b.compile_update) == ("auto", "auto", False)
+
+
+def test_out_of_memory_names_the_commands_own_sizes(monkeypatch, capsys):
+    """eval out of memory: the size to make smaller is its --episodes; bench's is
+    --workers (`cli._SIZES`), not train's buffer_size."""
+    from acder_lite import cli
+
+    def oom(args):
+        raise MemoryError()
+
+    for command, argv, sizes in (
+        ("cmd_eval", ["eval", "--checkpoint", "x.pt"], "(--episodes)"),
+        ("cmd_bench", ["bench"], "(--workers)"),
+    ):
+        monkeypatch.setattr(cli, command, oom)
+        assert cli.main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("error: out of memory") and err.strip().endswith(sizes)
+
+
+def test_an_option_misspelt_twice_gets_one_hint(capsys):
+    """`--epoch 2 --epoch 3`: both unknown, one option meant: '--epochs' once."""
+    from acder_lite.cli import main
+
+    assert main(["train", "--epoch", "2", "--epoch", "3"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith(
+        "unrecognized arguments: --epoch 2 --epoch 3; did you mean --epochs?"
+    )
+
+
+def test_resume_of_a_runs_file_names_its_folder(tmp_path, capsys):
+    """--resume RUN/policy.pt: refused, naming RUN, the folder to give instead."""
+    from acder_lite.cli import main
+
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "policy.pt").write_bytes(b"x")
+    assert main(["train", "--resume", str(tmp_path / "run" / "policy.pt")]) == 2
+    err = capsys.readouterr().err
+    assert f"allowed: the run folder ({str(tmp_path / 'run')!r}, where" in err
+
+
+def test_ctrl_c_in_a_command_exits_130(monkeypatch, capsys):
+    """Ctrl-C in a command other than train (which says where its checkpoint is):
+    'interrupted' and exit code 130, the shell's for SIGINT."""
+    from acder_lite import cli
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "cmd_eval", interrupted)
+    assert cli.main(["eval", "--checkpoint", "x.pt"]) == 130
+    assert capsys.readouterr().err == "interrupted\n"

@@ -393,3 +393,93 @@ def test_factor_against_block_stacks_the_moved_rows_on_a_log_axis():
     assert list(diagonal.get_xdata()) == list(diagonal.get_ydata()) == [1, 1.5]
     assert axes[1].get_ylabel() == r"$\lambda_r$ (Eq. 6, used)"
     plt.close(fig)
+
+
+def test_the_band_is_one_std_either_side_of_the_mean_of_two_seeds():
+    """Seeds at 0.5, 0.9 and 0.9, 1.0: mean 0.7, 0.95 and std 0.2, 0.05, so the band
+    runs from 0.5 to 0.9 at epoch 1 and from 0.9 to 1.0 at epoch 2 (two seeds are
+    enough for a band)."""
+    runs = [
+        push_run(0, [0.5, 0.9], "budget", 2.0),
+        push_run(1, [0.9, 1.0], "budget", 2.0),
+    ]
+    fig, ax = plt.subplots()
+    plots.plot_mean_curves(ax, runs, "FetchPush-v4", ["acder"])
+    (band,) = ax.collections
+    xy = np.concatenate([p.vertices for p in band.get_paths()])
+    edges = [(xy[xy[:, 0] == e, 1].min(), xy[xy[:, 0] == e, 1].max()) for e in (1, 2)]
+    np.testing.assert_allclose(edges, [(0.5, 0.9), (0.9, 1.0)])
+    plt.close(fig)
+
+
+def test_the_carried_part_is_dotted_on_from_the_last_evaluation():
+    """Seed 0 stopped by the stop rule after epoch 2, seed 1 evaluated to epoch 4: the
+    mean (0.7, 0.9 at epochs 1, 2) is solid to epoch 2 and dotted from that point on,
+    with no gap; it crosses 0.8 halfway between epochs 1 and 2, where the dot sits on
+    the threshold."""
+    runs = [
+        push_run(0, [0.9, 1.0], "stop rule", budget=4.0),
+        push_run(1, [0.5, 0.8, 0.9, 1.0], "budget", budget=4.0),
+    ]
+    from acder_lite import report
+
+    m = report.learning_curves(runs)
+    fig, ax = plt.subplots()
+    hit = plots.draw_mean(ax, m[("FetchPush-v4", "acder")], 0.8, "C4", "acder")
+    solid, dotted, dot = ax.get_lines()
+    np.testing.assert_allclose(solid.get_xydata(), [[1.0, 0.7], [2.0, 0.9]])
+    assert dotted.get_linestyle() == ":"
+    np.testing.assert_allclose(dotted.get_xdata(), [2.0, 3.0, 4.0])
+    np.testing.assert_allclose(dotted.get_xydata()[0], [2.0, 0.9])
+    assert hit == pytest.approx(1.5)
+    np.testing.assert_allclose(dot.get_xydata(), [[1.5, 0.8]])
+    plt.close(fig)
+
+
+def test_view_limit_is_a_quarter_past_the_last_evaluation_at_most_the_budget():
+    """Last evaluations at epochs 6 and 8 of a 50-epoch budget: 1.25 x 8 = 10; a run
+    evaluated to epoch 48 is held to the budget, 50; no runs: the task's budget."""
+    runs = [
+        push_run(0, [0.1] * 6, None, budget=50.0),
+        push_run(1, [0.1] * 8, None, budget=50.0),
+    ]
+    assert plots.view_limit(runs, "FetchPush-v4", ["acder"]) == pytest.approx(10.0)
+    runs.append(push_run(2, [0.1] * 48, None, budget=50.0))
+    assert plots.view_limit(runs, "FetchPush-v4", ["acder"]) == 50.0
+    assert plots.view_limit([], "FetchPush-v4", ["acder"]) == 50.0
+
+
+def test_seed_column_draws_a_line_a_seed_and_names_each_method_once():
+    """Two seeds of one method: two lines of their own values, one legend entry."""
+    runs = [push_run(0, [0.1, 0.2], None), push_run(1, [0.3, 0.4], None)]
+    fig, ax = plt.subplots()
+    drawn = plots.plot_seed_column(
+        ax, runs, "FetchPush-v4", ["acder"], "test_success", "test success"
+    )
+    assert drawn == 2
+    np.testing.assert_allclose(ax.lines[1].get_xydata(), [[1.0, 0.3], [2.0, 0.4]])
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["DDPG+ACDER"]
+    plt.close(fig)
+
+
+def test_the_legend_counts_the_seeds_still_training():
+    """Three seeds, one ended: '3 seeds, 2 unfinished'."""
+    runs = [push_run(0, [0.5], "budget"), push_run(1, [0.5], None)]
+    runs.append(push_run(2, [0.5], None))
+    fig, ax = plt.subplots()
+    plots.plot_mean_curves(ax, runs, "FetchPush-v4", ["acder"])
+    assert ax.lines[0].get_label() == "DDPG+ACDER (3 seeds, 2 unfinished)"
+    plt.close(fig)
+
+
+def test_clip_histogram_title_counts_an_error_exactly_at_the_clip():
+    """Errors 0.01, 0.8, 0.8, 2.0 against eta = 0.8: three of four are at or above the
+    clip (the last bin holds them), so the title says 0.75."""
+    fig, ax = plt.subplots()
+    plots.clip_histogram(
+        ax, np.array([0.01, 0.8, 0.8, 2.0]), np.full(2, 0.8), 0.8, "raw"
+    )
+    first, second = ax.containers
+    assert first[-1].get_height() == pytest.approx(0.75)
+    assert ax.get_title().endswith("familiar 0.75, new 1.00")
+    plt.close(fig)

@@ -140,3 +140,20 @@ def test_the_first_signal_held_back_is_delivered_first(handlers):
         os.kill(os.getpid(), signal.SIGINT)
         assert got == []  # held back
     assert got[0] == signal.SIGTERM
+
+
+def test_run_files_a_failed_write_leaves_the_previous_file_whole(tmp_path):
+    """A config.json or policy.pt whose write fails part way (a value json or pickle
+    cannot take) leaves the one written before as it was, not a truncated file."""
+    from acder_lite.runfiles import RunFiles
+
+    rf = RunFiles(str(tmp_path))
+    rf.write_config({"env": "FetchReach-v4"}, 0, "python -m acder_lite train", 0)
+    rf.save({"cycle": 1}, {"w": torch.ones(2)})
+    before = {f: (tmp_path / f).read_bytes() for f in ("config.json", "policy.pt")}
+    with pytest.raises(TypeError):  # json: an object it cannot write
+        rf.write_config({"env": "FetchReach-v4", "bad": object()}, 0, "cmd", 0)
+    with pytest.raises(Exception):  # pickle: a local function
+        rf.save({"cycle": 2}, {"w": torch.ones(2), "f": lambda: 0})
+    for f, data in before.items():
+        assert (tmp_path / f).read_bytes() == data, f

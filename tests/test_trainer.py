@@ -739,3 +739,51 @@ def test_resuming_drops_the_rows_logged_after_the_checkpoint(tmp_path):
     tr.load_state_dict(load_torch(str(run / "checkpoint.pt")))
     tr.train(False, max_cycles=3)  # resumed, and paused before a cycle more
     assert cycles() == ["1", "2", "3"]
+
+
+def test_config_json_names_the_commit_and_whether_the_source_had_changes(
+    monkeypatch,
+):
+    """`versions()["git"]`: the commit git names, '+dirty' after it only when git
+    status lists a changed file, and '' outside a checkout (no commit, or no git)."""
+    import subprocess
+    import types
+
+    from acder_lite import runfiles
+
+    def git(head, status):
+        def run(cmd, **kw):
+            out = head if cmd[1] == "rev-parse" else status
+            return types.SimpleNamespace(stdout=out)
+
+        monkeypatch.setattr(subprocess, "run", run)
+        return runfiles._git_commit()
+
+    assert git("abc123\n", "") == "abc123"
+    assert git("abc123\n", " M acder_lite/trainer.py\n") == "abc123+dirty"
+    assert git("", " M acder_lite/trainer.py\n") == ""
+
+    def no_git(cmd, **kw):
+        raise FileNotFoundError("git")
+
+    monkeypatch.setattr(subprocess, "run", no_git)
+    assert runfiles._git_commit() == ""
+
+
+def test_a_resumed_config_json_holds_the_new_config_and_the_first_command(tmp_path):
+    """A resume at cycle 5 with --epochs 4: config.json's config becomes the resumed
+    one, its command stays the first, and the resume's command and cycle are appended
+    under "resumes"."""
+    import json
+
+    from acder_lite.runfiles import RunFiles
+
+    rf = RunFiles(str(tmp_path))
+    rf.write_config({"epochs": 2}, 7, "train --out run", 0)
+    rf.write_config({"epochs": 4}, 7, "train --resume run --epochs 4", 5)
+    d = json.loads((tmp_path / "config.json").read_text())
+    assert d["config"] == {"epochs": 4} and d["seed"] == 7
+    assert d["command"] == "train --out run"
+    assert [(r["command"], r["at_cycle"]) for r in d["resumes"]] == [
+        ("train --resume run --epochs 4", 5)
+    ]

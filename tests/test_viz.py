@@ -237,3 +237,58 @@ def test_the_band_of_a_success_rate_stays_within_0_and_1():
     ys = np.concatenate([p.vertices[:, 1] for p in band.get_paths()])
     assert ys.max() == 1.0 and ys.min() > 0.4  # clipped at 1, the lower side as drawn
     plt.close(fig)
+
+
+def test_color_packs_red_green_blue_into_a_three_js_hex():
+    """three.js reads 0xRRGGBB: red is 0xFF0000; 0.5 of 255 rounds to 128 = 0x80."""
+    assert viz._color([1.0, 0.0, 0.0, 1.0]) == 0xFF0000
+    assert viz._color([0.0, 0.5, 1.0]) == 0x0080FF
+
+
+def test_scene_animates_each_frames_pose_and_goal_at_the_recordings_rate(tmp_path):
+    """Three stored states of a moving arm, each with its own goal, 0.25 s apart: the
+    env is put back, the animation runs at 1 / 0.25 = 4 frames a second, each geom
+    starts at frame 0's pose and its track holds every frame's position and rotation,
+    the goal's track every frame's goal."""
+    import mujoco
+
+    env = E.make_env("FetchReach-v4", seed=0)
+    states, goals = [], []
+    for k in range(3):
+        for _ in range(3):
+            E.step(env, np.array([0.5, -0.5, 0.5, 0.0]))
+        states.append(E.get_state(env))
+        goals.append(env.goal + 0.01 * k)
+    E.step(env, np.array([-0.5, 0.5, 0.0, 0.0]))
+    now = E.get_state(env)
+    rec = viz.record_states(env, np.stack(states), np.stack(goals), dt=0.25)
+    np.testing.assert_array_equal(E.get_state(env), now)
+    assert rec.dt == 0.25
+    vis = viz.scene_from_recording(rec, cell=None)
+    try:
+        commands = viz.scene_commands(vis.static_html())
+    finally:
+        viz.close_visualizer(vis)
+    (anim,) = [c for c in commands if c.get("type") == "set_animation"]
+    tracks = {a["path"]: a["clip"] for a in anim["animations"]}
+    assert {clip["fps"] for clip in tracks.values()} == {4}
+    start = {
+        c["path"]: c["matrix"] for c in commands if c.get("type") == "set_transform"
+    }
+    goal = tracks.pop("/meshcat/fetch/target")["tracks"]
+    np.testing.assert_allclose([k["value"] for k in goal[0]["keys"]], rec.goal)
+    np.testing.assert_allclose(start["/meshcat/fetch/target"][12:15], rec.goal[0])
+    turned = 0
+    for path, clip in tracks.items():
+        i = int(path.rsplit("geom", 1)[1])
+        position, rotation = (
+            [k["value"] for k in t["keys"]] for t in clip["tracks"]
+        )  # .position, then .quaternion (x, y, z, w)
+        np.testing.assert_allclose(position, rec.xpos[:, i])
+        np.testing.assert_allclose(start[path][12:15], rec.xpos[0, i])
+        for k, q in enumerate(rotation):
+            wxyz = np.empty(4)
+            mujoco.mju_mat2Quat(wxyz, rec.xmat[k, i].ravel())
+            assert abs(np.dot(np.r_[q[3], q[:3]], wxyz)) == pytest.approx(1.0)
+        turned += not np.allclose(rec.xmat[0, i], rec.xmat[-1, i], atol=1e-3)
+    assert turned  # some geom turns, so frame k's rotation is checked
