@@ -483,3 +483,18 @@ def test_clip_histogram_title_counts_an_error_exactly_at_the_clip():
     assert first[-1].get_height() == pytest.approx(0.75)
     assert ax.get_title().endswith("familiar 0.75, new 1.00")
     plt.close(fig)
+
+
+def test_factor_arrows_point_to_the_goal_in_any_direction():
+    """The red arrow is the goal's xy direction at length 0.8 (the unit action's
+    length), wherever the goal lies: (0, -0.3) gives (0, -0.8), (0.1, 0) (0.8, 0)."""
+    from acder_lite.plots import factor_arrows
+
+    for goal, tip in (((0.0, -0.3, 0.0), (0.0, -0.8)), ((0.1, 0.0, 0.0), (0.8, 0.0))):
+        fig, ax = plt.subplots()
+        factor_arrows(ax, np.array(goal), np.array([1.0, 0, 0]), 1.0, -1.0)
+        red = ax.patches[0]
+        assert red.get_label() == "to goal"
+        np.testing.assert_allclose(red._dx, tip[0], atol=1e-12)
+        np.testing.assert_allclose(red._dy, tip[1], atol=1e-12)
+        plt.close(fig)
