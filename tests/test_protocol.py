@@ -146,6 +146,22 @@ def test_mlp_xavier_uniform_weights_and_zero_biases():
         assert _is_xavier(layer) and not _is_torch_default(layer)
 
 
+def test_the_critic_sees_the_action_over_max_u_and_the_actor_scales_tanh():
+    """Q(o, g, u) = MLP([x, u / max_u]) and pi = max_u * tanh(MLP(x)), checked with
+    max_u = 2 (every Fetch task has max_u = 1, where u / max_u = u * max_u): the
+    critic's value at u equals its network's at u / 2, and the actor's action is
+    twice its network's tanh output."""
+    from acder_lite.core import Actor, Critic
+
+    torch.manual_seed(0)
+    x, u = torch.randn(5, 3), torch.rand(5, 2) * 4 - 2
+    critic = Critic(3, 2, hidden=8, layers=1, max_u=2.0)
+    want = critic.net(torch.cat([x, u / 2], -1)).squeeze(-1)
+    torch.testing.assert_close(critic(x, u), want)
+    actor = Actor(3, 2, hidden=8, layers=1, max_u=2.0)
+    torch.testing.assert_close(actor(x), 2 * actor.net(x))
+
+
 def test_torch_init_differs():
     torch.manual_seed(0)
     layers = _linears(mlp([31, 256, 256, 256, 4], init="torch"))

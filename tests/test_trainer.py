@@ -787,3 +787,186 @@ def test_a_resumed_config_json_holds_the_new_config_and_the_first_command(tmp_pa
     assert [(r["command"], r["at_cycle"]) for r in d["resumes"]] == [
         ("train --resume run --epochs 4", 5)
     ]
+
+
+def test_a_cycle_updates_the_targets_once_after_its_updates(monkeypatch):
+    """Baselines' cycle: episodes_per_cycle (2) collections, updates_per_cycle (4)
+    gradient steps, then one Polyak step of the target networks (not one per
+    update), and the cycle counter moves by one."""
+    tr = Trainer(tiny_config())
+    calls = []
+    monkeypatch.setattr(tr, "collect", lambda: calls.append("collect"))
+    monkeypatch.setattr(tr, "update_step", lambda: calls.append("update"))
+    monkeypatch.setattr(tr.agent, "update_targets", lambda: calls.append("targets"))
+    tr.train_cycle()
+    assert calls == ["collect"] * 2 + ["update"] * 4 + ["targets"]
+    assert tr.cycle == 1
+
+
+def test_log_row_averages_each_column_over_its_own_count(monkeypatch):
+    """log_row by hand, after cycle 4 of 3-cycle epochs (a mid-epoch evaluation,
+    epoch 4/3) with the diagnostics of 2 updates and 4 episodes: the losses, r_i,
+    the curiosity loss and lambda are sums over the updates (critic 3.0 -> 1.5, actor
+    -1.0 -> -0.5, r_i 0.5 -> 0.25, loss 0.25 -> 0.125, lambda 2.5 -> 1.25), the
+    success and novel-start counts are over the episodes (1 of 4 -> 0.25, 2 of 4 ->
+    0.5); q_mean is the evaluation's. The diagnostics start again from zero."""
+    tr = Trainer(tiny_config(method="acder"))
+    tr.cycle, tr.episodes, tr.env_steps = 4, 8, 400
+
+    def scripted():
+        tr.diag["q_mean"] = -2.0
+        return 0.75
+
+    monkeypatch.setattr(tr, "evaluate", scripted)
+    tr.diag.update(
+        n_upd=2,
+        critic_loss=3.0,
+        actor_loss=-1.0,
+        r_int=0.5,
+        cur_loss=0.25,
+        lam=2.5,
+        n_ep=4,
+        n_succ=1,
+        n_novel=2,
+    )
+    row = tr.log_row(0.0)
+    assert row["epoch"] == pytest.approx(4 / 3)
+    want = dict(
+        cycle=4,
+        episodes=8,
+        env_steps=400,
+        test_success=0.75,
+        train_success=0.25,
+        critic_loss=1.5,
+        actor_loss=-0.5,
+        q_mean=-2.0,
+        r_int_mean=0.25,
+        curiosity_loss=0.125,
+        lambda_mean=1.25,
+        novel_start_share=0.5,
+    )
+    assert {k: row[k] for k in want} == want
+    assert tr.rows == [row] and tr.diag["n_upd"] == tr.diag["n_ep"] == 0
+
+
+def test_lambda_mean_sums_each_minibatchs_mean_factor():
+    """The lambda_mean column's sum: each reward computation adds the mean of Eq. 6's
+    factor over its minibatch (lambda = 1 on rows HER did not relabel), not its
+    largest value."""
+    tr = Trainer(tiny_config(method="acder-no-curiosity", env="FetchPush-v4"))
+    tr.collect()
+    batch = tr.sample_batch()
+    lam = goal_oriented_factor(batch["o"][:, :3], batch["g"], batch["u"])
+    lam[~batch["her"]] = 1.0
+    assert lam.max() > lam.mean() > 1.0
+    tr.rewards(batch, tr.batch_tensors(batch))
+    assert tr.diag["lam"] == pytest.approx(lam.mean(), rel=1e-6)
+
+
+def test_q_mean_is_the_critic_at_the_test_episodes_first_states(monkeypatch):
+    """evaluate's q_mean: Q(s_0, pi(s_0)) at the first state of every test episode
+    (2 rounds of the worker's test env), averaged; the success is the mean of their
+    last steps' flags."""
+    import torch
+
+    from acder_lite import trainer as trainer_module
+
+    tr = Trainer(tiny_config(env="FetchPush-v4", test_episodes=2))
+    real, eps = trainer_module.run_episodes, []
+
+    def recorded(*a, **kw):
+        eps.append(real(*a, **kw))
+        return eps[-1]
+
+    monkeypatch.setattr(trainer_module, "run_episodes", recorded)
+    success = tr.evaluate()
+    assert len(eps) == 2
+    with torch.no_grad():
+        q = [
+            tr.agent.critic(x, tr.agent.actor(x)).numpy()
+            for x in (tr.policy.inputs(e["o"][:, 0], e["g"][:, 0]) for e in eps)
+        ]
+    assert tr.diag["q_mean"] == pytest.approx(float(np.mean(q)), rel=1e-6)
+    assert success == np.mean([e["success"] for e in eps])
+
+
+def test_should_stop_once_the_last_patience_rows_hold_the_threshold():
+    """The stop rule with stop_patience = 2 and threshold 0.95: not after one row
+    (too few), as soon as the first two both hold it, not when the latest of three
+    falls below it, and again when the last two hold it (an earlier miss no longer
+    counts)."""
+    tr = Trainer(tiny_config(success_threshold=0.95, stop_patience=2))
+
+    def stop(*successes):
+        tr.rows = [dict(test_success=s) for s in successes]
+        return tr.should_stop()
+
+    assert not stop(0.96)
+    assert stop(0.96, 0.95)
+    assert not stop(0.96, 0.97, 0.9)
+    assert stop(0.5, 0.9, 0.96, 1.0)
+    tr.cfg.stop_patience = 0
+    assert not stop(1.0, 1.0)
+
+
+def test_past_gap_counts_from_the_first_success_inclusive():
+    """The gap rule (stop_gap_episodes = 6): the first evaluation at 0.95 or more
+    logged 4 episodes; the run is past the gap at 4 + 6 = 10 episodes exactly, not
+    at 9, and never without a success."""
+    tr = Trainer(tiny_config(success_threshold=0.95, stop_gap_episodes=6))
+    tr.rows = [
+        dict(episodes=2, test_success=0.5),
+        dict(episodes=4, test_success=0.96),
+        dict(episodes=6, test_success=0.9),
+    ]
+    tr.episodes = 9
+    assert not tr.past_gap()
+    tr.episodes = 10
+    assert tr.past_gap()
+    tr.rows[1]["test_success"] = 0.9
+    assert not tr.past_gap()
+
+
+def test_a_loaded_checkpoint_keeps_its_stop_reason():
+    """state_dict / load_state_dict carry the end of a finished run: done and its
+    stop_reason (done.json's, should the run be resumed again)."""
+    tr = Trainer(tiny_config())
+    tr.done, tr.stop_reason = True, "gap after first success"
+    new = Trainer(tiny_config())
+    new.load_state_dict(tr.state_dict())
+    assert (new.done, new.stop_reason) == (True, "gap after first success")
+
+
+def test_collect_counts_episodes_and_env_steps():
+    """One collection on Reach (T = 50 steps) with 2 workers: 2 episodes and 2 * 50 =
+    100 env steps (T actions an episode; its T + 1 observations include the reset's),
+    both episodes in the buffer and in the diagnostics' episode count."""
+    tr = Trainer(tiny_config(workers=2))
+    assert tr.T == 50
+    tr.collect()
+    assert (tr.episodes, tr.env_steps, tr.buffer.n, tr.diag["n_ep"]) == (2, 100, 2, 2)
+
+
+def test_a_run_stopped_mid_epoch_saves_its_last_state(tmp_path):
+    """The stop rule can end a run between epoch ends (eval_every_cycles = 1): success
+    held once (stop_patience = 1) at the evaluation after cycle 2 of a 3-cycle epoch.
+    The checkpoint and policy.pt are then those of cycle 2, the run's last state, not
+    of the start; done.json's wall time is the checkpoint's."""
+    import json
+
+    from acder_lite.io import load_torch
+
+    cfg = tiny_config(
+        epochs=2, eval_every_cycles=1, stop_patience=1, success_threshold=0.5
+    )
+    tr = Trainer(cfg, str(tmp_path))
+    scripted = iter([0.0, 1.0])
+    tr.evaluate = lambda: next(scripted)
+    tr.train(False)
+    assert (tr.cycle, tr.stop_reason) == (2, "success held")
+    ck = load_torch(str(tmp_path / "checkpoint.pt"))
+    assert ck["progress"]["cycle"] == 2 and ck["progress"]["done"]
+    pol = load_torch(str(tmp_path / "policy.pt"))
+    assert pol["policy"]["trained"]["epochs"] == pytest.approx(2 / 3)
+    done = json.loads((tmp_path / "done.json").read_text())
+    assert done["wall_s"] == ck["progress"]["wall"] > 0
