@@ -98,16 +98,23 @@ def test_record_states_takes_one_goal_or_one_per_frame():
         viz.record_states(env, states, np.zeros(4))
 
 
-def test_pool_scene_steps_through_the_states_with_a_marker_each(tmp_path):
-    env = E.make_env("FetchReach-v4", seed=0)
+def _moving_arm(env, n: int = 3):
+    """n stored states of Reach's arm, 3 steps apart, each with its own goal (1 cm
+    further along every axis a state)."""
     states, goals = [], []
-    for k in range(3):
+    for k in range(n):
         for _ in range(3):
             E.step(env, np.array([0.5, -0.5, 0.5, 0.0]))
         states.append(E.get_state(env))
         goals.append(env.goal + 0.01 * k)
+    return np.stack(states), np.stack(goals)
+
+
+def test_pool_scene_steps_through_the_states_with_a_marker_each(tmp_path):
+    env = E.make_env("FetchReach-v4", seed=0)
+    states, goals = _moving_arm(env)
     marks = np.array([[1.2, 0.7, 0.5], [1.3, 0.7, 0.5], [1.3, 0.8, 0.5]])
-    vis = viz.pool_scene(env, np.stack(states), np.stack(goals), marks, dt=0.5)
+    vis = viz.pool_scene(env, states, goals, marks, dt=0.5)
     try:
         html = vis.static_html()
     finally:
@@ -253,15 +260,10 @@ def test_scene_animates_each_frames_pose_and_goal_at_the_recordings_rate(tmp_pat
     import mujoco
 
     env = E.make_env("FetchReach-v4", seed=0)
-    states, goals = [], []
-    for k in range(3):
-        for _ in range(3):
-            E.step(env, np.array([0.5, -0.5, 0.5, 0.0]))
-        states.append(E.get_state(env))
-        goals.append(env.goal + 0.01 * k)
+    states, goals = _moving_arm(env)
     E.step(env, np.array([-0.5, 0.5, 0.0, 0.0]))
     now = E.get_state(env)
-    rec = viz.record_states(env, np.stack(states), np.stack(goals), dt=0.25)
+    rec = viz.record_states(env, states, goals, dt=0.25)
     np.testing.assert_array_equal(E.get_state(env), now)
     assert rec.dt == 0.25
     vis = viz.scene_from_recording(rec, cell=None)
