@@ -566,9 +566,10 @@ def factor_arrows(ax, goal, action, lam: float, r_fail: float):
     """Chapter 5's widget: from the gripper at the origin, the direction to `goal`
     (red) and the action's xy part (blue) on a square of side 2, titled with the
     action's factor `lam` (Eq. 6) and the reward `r_fail` a failed step then earns."""
-    to_goal = 0.8 * goal[:2] / np.linalg.norm(goal[:2])  # the xy direction, as long
+    d = np.linalg.norm(goal[:2])  # 0 for a goal straight above: no xy direction
+    to_goal = 0.8 * goal[:2] / d if d > 0 else np.zeros(2)
     ax.arrow(0, 0, *to_goal, color="r", width=0.01, label="to goal")
-    xy = action[0] * 0.8, action[1] * 0.8  # a unit action's as long as the goal's
+    xy = action[0] * 0.8, action[1] * 0.8  # both at 0.8 for a unit action
     ax.arrow(0, 0, *xy, color="b", width=0.01, label="action (xy)")
     ax.set_xlim(-1, 1)
     ax.set_ylim(-1, 1)

@@ -487,10 +487,12 @@ def test_clip_histogram_title_counts_an_error_exactly_at_the_clip():
 
 def test_factor_arrows_point_to_the_goal_in_any_direction():
     """The red arrow is the goal's xy direction at length 0.8 (the unit action's
-    length), wherever the goal lies: (0, -0.3) gives (0, -0.8), (0.1, 0) (0.8, 0)."""
+    length), wherever the goal lies: (0, -0.3) gives (0, -0.8), (0.1, 0) (0.8, 0); a
+    goal straight above has no xy direction, and no arrow."""
     from acder_lite.plots import factor_arrows
 
-    for goal, tip in (((0.0, -0.3, 0.0), (0.0, -0.8)), ((0.1, 0.0, 0.0), (0.8, 0.0))):
+    cases = (((0.0, -0.3, 0.0), (0.0, -0.8)), ((0.1, 0.0, 0.0), (0.8, 0.0)))
+    for goal, tip in cases + (((0.0, 0.0, 0.2), (0.0, 0.0)),):  # above: no arrow
         fig, ax = plt.subplots()
         factor_arrows(ax, np.array(goal), np.array([1.0, 0, 0]), 1.0, -1.0)
         red = ax.patches[0]
