@@ -74,15 +74,31 @@ def test_which_methods_reward_curiosity():
     assert not W.curiosity_in_reward("her") and not W.curiosity_in_reward("her-ebp")
 
 
-def test_buffer_readings_in_a_sentence(tmp_path):
-    wraps = dict(share_of_rows=0.068, share_at_clip=0.52, candidates=40)
-    d = dict(
-        run="results/FetchPush-v4/acder/seed2",
+def _buffer_reading(run, episodes, rows, at_clip, wraps_at_clip, wraps, candidates):
+    """A reading of `buffer.sh` as its JSON holds it: `rows` minibatch rows, a share
+    `at_clip` of them at Eq. 4's clip, `wraps` (share_of_rows, share_of_candidates)
+    the share of the clipped rows that are wraps, and how many candidates there are."""
+    share_of_rows, share_of_candidates = wraps
+    return dict(
+        run=run,
         method="acder",
-        episodes=10400,
+        episodes=episodes,
         curiosity=dict(
-            rows=40960, share_at_clip=0.13, wraps=wraps | {"share_of_candidates": 0.725}
+            rows=rows,
+            share_at_clip=at_clip,
+            wraps=dict(
+                share_of_rows=share_of_rows,
+                share_at_clip=wraps_at_clip,
+                candidates=candidates,
+                share_of_candidates=share_of_candidates,
+            ),
         ),
+    )
+
+
+def test_buffer_readings_in_a_sentence(tmp_path):
+    d = _buffer_reading(
+        "results/FetchPush-v4/acder/seed2", 10400, 40960, 0.13, 0.52, (0.068, 0.725), 40
     )
     (tmp_path / "a").mkdir()
     (tmp_path / "a" / "r@abc.json").write_text(json.dumps(d))
@@ -142,15 +158,7 @@ def test_sentence_reads_apart_either_way(tmp_path):
 def test_buffer_sentence_says_no_candidate_is_a_wrap_in_the_plural():
     """0 of 40 candidates "are wraps"; only a count of exactly 1 "is a wrap"
     (round(0.025 * 40) = 1)."""
-    wraps = dict(share_of_rows=0.0, share_at_clip=None, candidates=40)
-    d = dict(
-        run="r",
-        method="acder",
-        episodes=400,
-        curiosity=dict(
-            rows=4096, share_at_clip=0.0, wraps=wraps | {"share_of_candidates": 0.0}
-        ),
-    )
+    d = _buffer_reading("r", 400, 4096, 0.0, None, (0.0, 0.0), 40)
     assert "0 of the 40 start-state candidates the minibatches give are wraps." in (
         W.buffer_sentence(d)
     )
