@@ -177,9 +177,10 @@ def lengths_sentence(env: str, runs: dict[str, dict | None]) -> str:
         return f"Not every {task} column is trained: there are no lengths to compare."
     episodes = {r["rows"][-1]["episodes"] for r in runs.values()}
     if len(episodes) == 1:
+        (n,) = episodes
         trained = {_trained(r) for r in runs.values()}
         # as many episodes in epochs of another size: the episodes alone are the same
-        one = trained.pop() if len(trained) == 1 else count(int(*episodes), "episode")
+        one = trained.pop() if len(trained) == 1 else count(int(n), "episode")
         return f"The {task} policies trained as long, {one} each."
     each = ", ".join(
         f"the {label.replace(' ', '-')} one {_trained(r)}" for label, r in runs.items()
