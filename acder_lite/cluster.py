@@ -82,6 +82,8 @@ def join_problem(address: str, error: Exception, ray_said: str) -> str:
             "~/.ray/auth_token)"
         )
     if "InvalidAuthToken" in ray_said or "InvalidAuthToken" in str(error):
+        # case-blind, as Ray reads it (ray/_private/authentication/
+        # authentication_token_setup.py: `auth_mode_env.lower() == "token"`)
         if os.environ.get("RAY_AUTH_MODE", "").lower() == "token":
             return (
                 f"--address={address!r}: the cluster refused this sweep's token "

@@ -340,8 +340,10 @@ def test_join_problem_says_what_to_set(monkeypatch):
     monkeypatch.delenv("RAY_AUTH_MODE", raising=False)
     refused = join_problem(a, ConnectionError("Failed to connect"), retries)
     assert "set RAY_AUTH_MODE=token" in refused and a in refused
-    monkeypatch.setenv("RAY_AUTH_MODE", "token")
-    assert "refused this sweep's token" in join_problem(a, ConnectionError(""), retries)
+    for mode in ("token", "TOKEN"):  # Ray reads the mode case-blind, and so do we
+        monkeypatch.setenv("RAY_AUTH_MODE", mode)
+        said = join_problem(a, ConnectionError(""), retries)
+        assert "refused this sweep's token" in said
     none = join_problem(a, AuthenticationError("no authentication token was found"), "")
     assert "RAY_AUTH_MODE=token but no token here" in none
     other = join_problem(a, ConnectionError("Could not find any running Ray\nmore"), "")
