@@ -316,10 +316,9 @@ class Config:
     pool_size: int = 50
     """How many of the most recent candidate start states are kept."""
     candidate_success: str = "final"
-    """Which episodes may give a start-state candidate (section IV-B: the transitions of
-    episodes "that have successfully reached the goal"): 'final', success at the
-    episode's last step (how a test episode is scored), or 'any', success at any of
-    its steps (departure 16)."""
+    """Which episodes may give a start-state candidate (section IV-B: "transitions that
+    stem from successful episodes"): 'final', success at the episode's last step (how
+    a test episode is scored), or 'any', success at any of its steps (departure 16)."""
     restart_goal: str = "resample"
     """Goal of an episode restarted from a stored state:
     'resample' (fresh) or 'episode' (stored)."""
