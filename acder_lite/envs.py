@@ -255,6 +255,23 @@ def successes(env, achieved_goal: np.ndarray, goal: np.ndarray) -> np.ndarray:
     return np.asarray(env._is_success(achieved_goal, goal)) > 0
 
 
+def scripted_grasp(obs: np.ndarray, t: int) -> np.ndarray:
+    """A grasp-and-lift controller for a block task (Push, Pick&Place), step `t` of it:
+    open fingers above the block (12 steps), down to it (8), close (5), then lift.
+    Proportional on the block's position relative to the gripper (`obs[6:9]`), the
+    displacement x 10 clipped to the action's [-1, 1]."""
+    rel = obs[6:9]
+    if t < 12:
+        target, fingers = rel + np.array([0.0, 0.0, 0.06]), 1.0
+    elif t < 20:
+        target, fingers = rel, 1.0
+    elif t < 25:
+        target, fingers = rel, -1.0
+    else:
+        target, fingers = np.array([0.0, 0.0, 0.08]), -1.0
+    return np.append(np.clip(target * 10, -1, 1), fingers)
+
+
 def replay_difference(
     env_id: str = "FetchPickAndPlace-v4",
     spec: int = STATE_SPEC,
@@ -264,8 +281,9 @@ def replay_difference(
     seed: int = 0,
 ) -> tuple[np.ndarray, int]:
     """How exactly a stored state replays: `warmup` random steps, store the state
-    (`get_state` with `spec`), take `steps` random actions, restore the state in the
-    same env and take the same actions again.
+    (`get_state` with `spec`), take `steps` actions of `scripted_grasp` (the fingers
+    close on the block and lift it: contacts throughout), restore the state in the
+    same env and take the same actions again (replayed as recorded, not recomputed).
 
     Returns the largest |difference| of the observation at each replayed step (zeros:
     bit for bit) and the stored state's size. `gymnasium_step` steps with the env's
@@ -278,14 +296,18 @@ def replay_difference(
     def obs_after(a):
         return (env.step(a) if gymnasium_step else step(env, a))[0]["observation"]
 
+    obs = env._get_obs()["observation"]
     for _ in range(warmup):
-        obs_after(rng.uniform(-1, 1, 4))
+        obs = obs_after(rng.uniform(-1, 1, 4))
     state = get_state(env, spec=spec)
-    actions = rng.uniform(-1, 1, (steps, 4))
-    original = np.array([obs_after(a) for a in actions])
+    actions, original = [], []
+    for t in range(steps):
+        actions.append(scripted_grasp(obs, t))
+        obs = obs_after(actions[-1])
+        original.append(obs)
     set_state(env, state, spec=spec)  # and mj_forward, as every restore
     restored = np.array([obs_after(a) for a in actions])
-    return np.abs(restored - original).max(axis=1), state.size
+    return np.abs(restored - np.array(original)).max(axis=1), state.size
 
 
 def env_rng_state(env) -> dict:

@@ -37,6 +37,31 @@ def test_replay_difference_tells_the_state_specs_and_steps_apart():
     assert E.replay_difference(steps=30, gymnasium_step=True)[0].max() > 0
 
 
+def test_the_replayed_actions_grasp_and_lift_the_block():
+    """Chapter 6 replays a rollout with contacts: `scripted_grasp`'s fingers touch the
+    block at most steps and lift it, from a random start (a random arm would not)."""
+    for seed in (0, 1):
+        env = E.make_env("FetchPickAndPlace-v4", seed=seed)
+        rng = np.random.default_rng(seed)
+        for _ in range(10):
+            obs = E.step(env, rng.uniform(-1, 1, 4))[0]["observation"]
+        z0, block = obs[5], env.model.body("object0").id
+        fingers = {
+            env.model.body(n).id
+            for n in ("robot0:r_gripper_finger_link", "robot0:l_gripper_finger_link")
+        }
+        touching = 0
+        for t in range(40):
+            obs = E.step(env, E.scripted_grasp(obs, t))[0]["observation"]
+            bodies = {
+                frozenset(env.model.geom_bodyid[[c.geom1, c.geom2]])
+                for c in env.data.contact[: env.data.ncon]
+            }
+            touching += any(frozenset((block, f)) in bodies for f in fingers)
+        assert touching >= 15 and obs[5] - z0 > 0.2, (seed, touching, obs[5] - z0)
+    assert not E.replay_difference(steps=5, warmup=0)[0].any()  # no warm-up: reset
+
+
 @pytest.mark.parametrize("env_id", ["FetchPush-v4", "FetchPickAndPlace-v4"])
 def test_restart_reproduces_stored_observation(env_id):
     a = E.make_env(env_id, seed=4)
