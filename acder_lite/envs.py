@@ -281,9 +281,10 @@ def replay_difference(
     seed: int = 0,
 ) -> tuple[np.ndarray, int]:
     """How exactly a stored state replays: `warmup` random steps, store the state
-    (`get_state` with `spec`), take `steps` actions of `scripted_grasp` (the fingers
-    close on the block and lift it: contacts throughout), restore the state in the
-    same env and take the same actions again (replayed as recorded, not recomputed).
+    (`get_state` with `spec`), take `steps` actions of `scripted_grasp` (with the
+    defaults the fingers touch the block from step 21 on and lift it), restore the
+    state in the same env and take the same actions again (replayed as recorded, not
+    recomputed).
 
     Returns the largest |difference| of the observation at each replayed step (zeros:
     bit for bit) and the stored state's size. `gymnasium_step` steps with the env's
