@@ -21,7 +21,7 @@ from .book_utils import percent, percent_range
 from .config import TASK_PRESETS
 from .multistep import ENV_ID
 from .trial_stats import wilson_interval
-from .words import and_join
+from .words import and_join, count
 
 METHODS = {"her": "DDPG+HER", "acder": "DDPG+ACDER"}
 """The methods chapter 9 runs on the task, by run folder name, with their labels, in the
@@ -46,10 +46,10 @@ def task_plan(path, env: str = ENV_ID, labels: dict | None = None):
     paper = TASK_PRESETS[env]["epochs"]
     lines = []
     for c in cells:
-        epochs = c.epochs
+        name = labels.get(c.method, c.method)
         lines.append(
-            f"{labels.get(c.method, c.method):11s} seed {c.seed}: {epochs} epochs "
-            f"({epochs / paper:.0%} of the paper's)"
+            f"{name:11s} seed {c.seed}: {count(c.epochs, 'epoch')} "
+            f"({c.epochs / paper:.0%} of the paper's)"
             + (f"; on hold: {c.hold}" if c.hold else "")
         )
     return cells, lines

@@ -33,7 +33,7 @@ from .report import (
     summarize,
 )
 from .runs import load_runs, planned_cells
-from .words import count
+from .words import count, plural
 
 METHOD_LABELS = {
     "ddpg": "DDPG",
@@ -178,7 +178,9 @@ def mean_text(c: CellStat) -> str:
             )
         text += ")"
     elif c.why == "not within budget" and c.budget_epochs:
-        text = f"not within budget ({c.budget_epochs:g} epochs"
+        text = (
+            f"not within budget ({c.budget_epochs:g} {plural(c.budget_epochs, 'epoch')}"
+        )
         paper = TASK_PRESETS.get(c.env, {}).get("epochs")  # the paper's budget
         if paper and c.budget_epochs < paper:  # a shorter run cannot say "never"
             text += f" of the paper's {paper:g}"

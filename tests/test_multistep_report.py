@@ -180,6 +180,13 @@ def test_task_plan_lists_the_tasks_cells_with_their_share_of_the_paper(tmp_path)
         "DDPG+ACDER  seed 0: 40 epochs (10% of the paper's)",
         "DDPG+ACDER  seed 1: 400 epochs (100% of the paper's); on hold: after the grid",
     ]
+    one = PLAN.replace(
+        "epochs = 40", "epochs = 1"
+    )  # a try-out: "1 epoch", not "1 epochs"
+    (tmp_path / "plan.toml").write_text(one)
+    assert task_plan(tmp_path / "plan.toml")[1][0] == (
+        "DDPG+HER    seed 0: 1 epoch (0% of the paper's)"
+    )
     cells, lines = task_plan(tmp_path / "missing.toml")
     assert cells == [] and len(lines) == 1 and lines[0].startswith("no plan: ")
     assert "missing.toml" in lines[0]

@@ -799,6 +799,8 @@ def test_not_within_budget_names_the_papers_budget_only_when_ours_is_shorter():
     assert T.mean_text(c) == "not within budget (50 epochs)"
     c.budget_epochs = 25.0
     assert T.mean_text(c) == "not within budget (25 epochs of the paper's 50)"
+    c.budget_epochs = 1.0  # a one-epoch try-out run
+    assert T.mean_text(c) == "not within budget (1 epoch of the paper's 50)"
 
 
 def test_seeds_text_says_on_hold_only_while_planned_seeds_are_missing():
