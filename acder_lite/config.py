@@ -115,6 +115,48 @@ METHODS: dict[str, dict] = {
     ),
 }
 
+SWITCHES = dict(
+    her=(False, True),
+    curiosity=("none", "sicm", "icm"),
+    curiosity_reward=(False, True),
+    goal_factor=(False, True),
+    start_states=(False, True),
+    priority=("none", "per", "ebp"),
+)
+"""Every switch of a `METHODS` entry and the values it may take."""
+
+
+def switches_problem(method: str, switches: dict) -> str | None:
+    """What is wrong with a `METHODS` entry, as one line, or None. Trap: the trainer
+    builds what the switches name and nothing else, so a misspelt switch or value
+    (curiosity="rnd") would train a run without that part, silently; and start
+    states are ranked by the curiosity module's r_i, so they need one."""
+    if set(switches) != set(SWITCHES):
+        return (
+            f"METHODS[{method!r}] has switches {sorted(switches)}; "
+            f"allowed: exactly {sorted(SWITCHES)}"
+        )
+    for name, allowed in SWITCHES.items():
+        if switches[name] not in allowed or type(switches[name]) is not type(
+            allowed[0]
+        ):
+            return (
+                f"METHODS[{method!r}][{name!r}]={switches[name]!r} is not allowed: "
+                f"one of {', '.join(map(repr, allowed))}"
+            )
+    if switches["start_states"] and switches["curiosity"] == "none":
+        return (
+            f"METHODS[{method!r}] has start_states without a curiosity module; "
+            "allowed: curiosity 'sicm' or 'icm' (its r_i ranks the candidates)"
+        )
+    if switches["curiosity_reward"] and switches["curiosity"] == "none":
+        return (
+            f"METHODS[{method!r}] has curiosity_reward without a curiosity module; "
+            "allowed: curiosity 'sicm' or 'icm'"
+        )
+    return None
+
+
 # Paper, section V-B: eta = 0.05 on Reach, 0.8 elsewhere; alpha0 = 0.8 (0.7 on the
 # multi-step task); 25 / 50 / 100 epochs. Table I: Reach counts episodes to 100% test
 # success, Push and Pick&Place to 95%. Baselines' experiment/config.py: FetchReach's
@@ -503,6 +545,9 @@ class Config:
             )
         if self.method not in METHODS:
             bad("method", "one of " + ", ".join(METHODS))
+        problem = switches_problem(self.method, METHODS[self.method])
+        if problem:
+            raise ConfigError(problem)
         if METHODS[self.method]["priority"] == "ebp" and self.env not in OBJECT_ENVS:
             raise ConfigError(
                 f"method={self.method!r} needs a task with an object; "

@@ -106,8 +106,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seeds", nargs="+", type=int, default=None, metavar="N")
     parser.add_argument(
         "--results",
-        default="results",
-        help="root of <env>/<method>/seed<k> (default: results)",
+        default=None,
+        help="root of <env>/<method>/seed<k> (default: results); not with --plan, "
+        "whose cells go under the plan file's folder or a group's root",
     )
     parser.add_argument(
         "--address",
@@ -173,6 +174,11 @@ def check_args(args) -> str | None:
             return (
                 "--plan FILE and --envs/--methods/--seeds "
                 "exclude each other; allowed: one of them"
+            )
+        if args.results is not None:  # it would be ignored: say so instead
+            return (
+                "--plan FILE and --results exclude each other: a plan's cells go "
+                "under the plan file's folder, or under a group's `root`"
             )
     elif any(x is None for x in grid):
         return "--envs, --methods and --seeds are required (or --plan FILE)"
@@ -595,7 +601,7 @@ def run(args) -> int:
         cells = (
             read_plan(args.plan)
             if args.plan is not None
-            else plan(args.envs, args.methods, args.seeds, args.results)
+            else plan(args.envs, args.methods, args.seeds, args.results or "results")
         )
         problem = check_cells(cells, args)
     except PlanError as e:

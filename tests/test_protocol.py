@@ -383,3 +383,30 @@ def test_baselines_ddpg_defaults_reach_the_networks_and_normalisers():
     for targ in (agent.actor_targ, agent.critic_targ):
         for q in targ.parameters():
             torch.testing.assert_close(q, torch.full_like(q, 0.05))
+
+
+def test_a_method_table_entry_names_only_switches_and_values_that_exist(monkeypatch):
+    """The trainer builds what a METHODS entry names and nothing else, so a misspelt
+    switch or value would train a run without that part, silently. Every entry of
+    the table passes; each kind of slip is one line naming the entry and the switch."""
+    from acder_lite import config as C
+
+    assert all(C.switches_problem(m, sw) is None for m, sw in METHODS.items())
+    her = dict(METHODS["her"])
+    slips = {
+        "curiosity": (dict(her, curiosity="rnd"), "'curiosity']='rnd' is not allowed"),
+        "missing": (
+            {k: v for k, v in her.items() if k != "priority"},
+            "allowed: exactly",
+        ),
+        "extra": (dict(her, novelty=True), "allowed: exactly"),
+        "type": (dict(her, goal_factor=1), "'goal_factor']=1 is not allowed"),
+        "starts": (dict(her, start_states=True), "start_states without a curiosity"),
+        "reward": (dict(her, curiosity_reward=True), "curiosity_reward without"),
+    }
+    for name, (sw, said) in slips.items():
+        problem = C.switches_problem("mine", sw)
+        assert problem and said in problem and "METHODS['mine']" in problem, name
+    monkeypatch.setitem(METHODS, "mine", slips["curiosity"][0])
+    with pytest.raises(C.ConfigError, match="is not allowed"):
+        Config(env="FetchPush-v4", method="mine").resolve()

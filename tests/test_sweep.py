@@ -472,6 +472,11 @@ def test_plan_and_grid_options_exclude_each_other(tmp_path, capsys):
         == 2
     )
     assert "exclude each other" in capsys.readouterr().err
+    # --results beside --plan was ignored (the cells went under the plan's folder)
+    plan_and_results = ["--plan", str(tmp_path / "p.toml"), "--results", "elsewhere"]
+    assert S.run(parse([*plan_and_results, "--dry-run"])) == 2
+    said = capsys.readouterr().err.strip().splitlines()
+    assert len(said) == 1 and "--plan FILE and --results exclude each other" in said[0]
     assert S.run(parse(["--envs", "FetchReach-v4", "--dry-run"])) == 2
     assert "required (or --plan FILE)" in capsys.readouterr().err
 
