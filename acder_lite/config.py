@@ -1,8 +1,8 @@
 """All settings of a run in one dataclass, the method table, and per-task presets.
 
-A method is a set of switches on the one trainer (DESIGN.md, "Data flow"): `METHODS`
+A method is a set of switches on the one trainer (the README's "Layout"): `METHODS`
 maps each `--method` name to those switches. Every decision the paper leaves open is a
-field here, with the default DESIGN.md fixes.
+field here, with the default book/departures.md gives and argues.
 """
 
 from __future__ import annotations
@@ -286,8 +286,9 @@ class Config:
     biases) or 'torch' (PyTorch's nn.Linear default, protocol v1)."""
     target_clip: str = "baselines"
     """Range of the critic's target y: 'baselines' ([-1/(1-gamma), 0], Baselines'
-    clip_pos_returns, for every method) or 'wide' ([-lambda_max, r_i_max] / (1 - gamma),
-    the range the method's shaped rewards can reach: protocol v1, for every method,
+    clip_pos_returns, for every method) or 'wide' ([bonus - lambda_max, bonus + r_i_max]
+    / (1 - gamma) with bonus = `reward_bonus`, the range the method's shaped rewards can
+    reach (`trainer.target_clip`): protocol v1, for every method,
     where it differed from Baselines' for ACDER, its ablations and HER+ICM; departure
     13)."""
     lr_actor: float = 1e-3

@@ -27,10 +27,10 @@ STATE_SPEC = int(
 )
 """What a stored state holds: mjSTATE_FULLPHYSICS (time, qpos, qvel, act, history,
 plugin state) plus the solver warm start, ctrl, the mocap pose and active equality
-constraints. FULLPHYSICS alone is not enough (DESIGN.md lists the same parts): without
-the warm start the solver starts from another guess and a restored rollout drifts, by
-1e-15 to 1e-11 within 20-40 steps depending on the task and MuJoCo's version (chapter 6
-measures it); with it they match bit for bit.
+constraints. FULLPHYSICS alone is not enough (departure 17 lists the same parts):
+without the warm start the solver starts from another guess and a restored rollout
+drifts, by 1e-15 to 1e-11 within 20-40 steps depending on the task and MuJoCo's version
+(chapter 6 measures it); with it they match bit for bit.
 The mocap pose and ctrl cost 7 numbers and keep restores exact for models that do not
 re-anchor the mocap every step. The rest of mjSTATE_INTEGRATION (applied forces, 219 of
 its 292 numbers on FetchPush) is always zero in these tasks and is left out: 73 numbers
@@ -214,7 +214,7 @@ def observe(env) -> dict:
 
 
 def restart_from(env, state: np.ndarray, goal: np.ndarray | None = None) -> dict:
-    """Start a new episode from a stored state (DESIGN.md, "Start states").
+    """Start a new episode from a stored state (departures 16-18, Eq. 9).
 
     `env.reset()` first, so the episode counter and the goal are fresh
     (`restart_goal="resample"`); then the stored state is written. Pass `goal` to keep a

@@ -402,8 +402,9 @@ POLICY_KEYS = (
     "norm",
 )
 """What `rollout.Policy.state_dict` writes (and `Policy.from_state_dict` reads). The
-trainer adds `obs` (`Config.obs`, the observation set); a policy written before it has
-none and saw "full"."""
+trainer adds `obs` (`Config.obs`, the observation set; a policy written before it has
+none and saw "full") and `trained` (epochs, episodes and the last test success, which
+`export` copies into its metadata)."""
 
 
 def _nonfinite(a) -> str:

@@ -26,7 +26,7 @@ gripper's linear velocity and the fingers' velocities (Reach: 5 of 10; one block
 (`gripper_state`, the last two robot qpos), not their velocities. In every task the kept
 entries happen to be a prefix of the full vector (gymnasium-robotics puts positions
 first); nothing relies on that except one thing, which is checked: o[:3] is still the
-gripper position, DESIGN.md's agent position s^a_t of the goal-oriented factor (Eq. 5-6,
+gripper position, the agent position s^a_t of the goal-oriented factor (Eq. 5-6,
 `Trainer.rewards`); `simplified_indices` raises if it were not.
 
 How it is applied (`select`, called by `envs.make_env`): the env's `_get_obs` is

@@ -388,8 +388,9 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     """Pack every unfinished run under the paths (and drop finished runs' packed
-    folders); exit 2 if a path is not a folder or a run could not be packed (one line
-    each; the other runs are packed all the same)."""
+    folders); exit 2 if a run could not be packed (one line each; the other runs are
+    packed all the same). A path that is not a folder is a CheckpointError before any
+    run is packed (`run_folders`; the CLI prints its one line and exits 2)."""
     folders = run_folders(args.paths)
     if not folders:
         print("pack: no run folder with a checkpoint under " + " ".join(args.paths))

@@ -49,7 +49,7 @@ class Cell:
 
 
 def run_dir(results: str | Path, env: str, method: str, seed: int) -> Path:
-    """`results/<env>/<method>/seed<k>`, the layout DESIGN.md fixes."""
+    """`results/<env>/<method>/seed<k>`, the layout results/README.md describes."""
     return Path(results) / env / method / f"seed{seed}"
 
 

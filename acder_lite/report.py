@@ -2,7 +2,7 @@
 crosses the threshold.
 
 Pure functions on arrays and on the rows of progress.csv; reading run folders is `runs`,
-printing is `table`. The statistic (DESIGN.md, "Table I's statistic"):
+printing is `table`. The statistic (departure 29):
 
 1. each seed's curve is its test success at its evaluations (protocol v2: once per
    epoch), on an axis of epochs; a seed that ended by the stop rule carries the mean of

@@ -1,9 +1,10 @@
 """The one trainer: rollouts, storage, HER sampling,
 rewards, DDPG and curiosity updates.
 
-The paper's protocol in one process (DESIGN.md, protocol v2): W envs stepped together, 2
-episodes per worker per cycle, 40 updates per cycle on minibatches of 256*W, 50 cycles
-an epoch (10 on FetchReach), 20 deterministic test episodes per worker after each epoch.
+The paper's protocol in one process (protocol v2, departures 1-3): W envs stepped
+together, 2 episodes per worker per cycle, 40 updates per cycle on minibatches of 256*W,
+50 cycles an epoch (10 on FetchReach), 20 deterministic test episodes per worker after
+each epoch.
 A method (`Config.method`) only flips switches here.
 """
 
@@ -127,7 +128,7 @@ class Trainer:
         self.g_norm = Normalizer(dims["g"], cfg.norm_eps, cfg.norm_clip)
         s_dim = dims["o"] + dims["g"]
         # cfg.device: networks, normalised minibatches and gradient steps; simulation,
-        # replay, HER sampling and the numpy rewards stay on the CPU (DESIGN.md)
+        # replay, HER sampling and the numpy rewards stay on the CPU
         self.device = dev = torch.device(self.cfg.device)
         self.agent = DDPG(s_dim, dims["u"], cfg, self.max_u, dev)
         self.policy = Policy(
@@ -328,8 +329,9 @@ class Trainer:
             pred, target, loss = self.curiosity.step(
                 s, tb["u"], s2, after=self.cfg.intrinsic_timing == "after"
             )
-            # the update's one trip to the CPU (a no-op there): Eq. 4 and 6 are numpy by
-            # design (rewards.py) and the start-state pool keeps numpy rows
+            # to the CPU (a no-op there): Eq. 4 and 6 are numpy by design (rewards.py)
+            # and the start-state pool keeps numpy rows; on a GPU this and the logged
+            # floats (losses, PER's |TD|) are the update's transfers back
             r_int = intrinsic_reward(
                 pred.cpu().numpy(), target.cpu().numpy(), self.cfg.eta
             ).astype(np.float32)
