@@ -279,10 +279,10 @@ def range_text(values) -> str:
 
 def paper_epochs_texts(env: str, episodes_per_epoch: float, budget: float) -> dict:
     """Table I's numbers on `env` in epochs (`report.paper_epochs`), as the book's
-    texts: `fractional`, the numbers that are no whole number of the paper's epochs of
-    400 episodes ('HER 1,000 (2.5 epochs)'); `in_ours`, every number in our epochs of
-    `episodes_per_epoch` ('12.5, 5 and 15'); `over`, how many of those lie past
-    `budget` epochs."""
+    texts: `fractional`, the numbers that are no whole number of the paper's epochs
+    of 400 episodes ('DDPG+HER 2,240 (5.6 epochs)'); `in_ours`, every number in our
+    epochs of `episodes_per_epoch` ('12.5, 5 and 15'); `over`, how many of those lie
+    past `budget` epochs."""
     odd = {m: e for m, e in paper_epochs(env).items() if e != int(e)}
     ours = paper_epochs(env, episodes_per_epoch).values()
     return dict(

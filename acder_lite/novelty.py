@@ -111,8 +111,9 @@ def shares_at(
 
 
 def scale_words(medians: dict[str, list[float]], default: str) -> str:
-    """The span of each input's medians, "0.17 to 2.7 on normalised inputs (the
-    default) and ...", `default` being the package's S-ICM input."""
+    """The span of each input's medians, "A to B on raw inputs (the default) and C to
+    D on normalised inputs", `default` being the package's S-ICM input
+    (`Config.sicm_input`)."""
     scale = [
         f"{min(m):.2g} to {max(m):.2g} on {inp} inputs"
         + (" (the default)" if inp == default else "")

@@ -13,12 +13,12 @@ policy the wrong numbers. The indices this gives (gymnasium-robotics 1.4.2;
 `acder_lite.multistep` for the two-block task):
 
     task                    full  kept  indices kept (names)
-    FetchReach-v4             10     5  0-2 grip_pos, 3-4 finger_l/r
+    FetchReach-v4             10     5  0-2 grip_pos, 3-4 finger_r/l
     FetchPush-v4              25    11  0-2 grip_pos, 3-5 object_pos,
-    FetchPickAndPlace-v4      25    11    6-8 object_rel_pos, 9-10 finger_l/r
+    FetchPickAndPlace-v4      25    11    6-8 object_rel_pos, 9-10 finger_r/l
                                           (the same on FetchSlide-v4)
     FetchPushMultiStep-v0     40    17  0-2 grip_pos, 3-8 object{0,1}_pos,
-                                          9-14 object{0,1}_rel_pos, 15-16 finger_l/r
+                                          9-14 object{0,1}_rel_pos, 15-16 finger_r/l
 
 Dropped: object rotations (Euler angles), object linear and angular velocities, the
 gripper's linear velocity and the fingers' velocities (Reach: 5 of 10; one block: 14 of

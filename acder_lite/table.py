@@ -136,7 +136,8 @@ def episodes(x: float | None) -> str:
 
 
 def seeds_text(c: CellStat) -> str:
-    """'3 done / 5 planned', '2 done, 1 unfinished', '0 / 5 planned (on hold)', ..."""
+    """'3 done / 5 planned', '2 done, 1 unfinished', '0 done / 5 planned (on hold)',
+    ..."""
     parts = [f"{c.done} done"]
     if c.unfinished:
         parts.append(f"{c.unfinished} unfinished")
