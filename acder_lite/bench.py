@@ -16,7 +16,9 @@ given threads, as training steps them) + the update FLOPs of one episode
 `share_of_limit` = limit / train (1 is the limit itself; 0.8 is training at 1.25x it).
 `grid_cpu_ms_per_episode` is what one training episode costs a sweep in CPU time (all
 threads' time, process_time), the protocol's end-of-epoch evaluation included: the
-figure that decides a grid's core-hours.
+figure that decides a grid's core-hours. An update faster than its own reference matmul
+(`update_share_of_matmul` above 1) means the matmul was timed on a busy machine: one
+warning line on stderr says the limit is not to be trusted.
 
 `--compile-update` times the update with its losses under torch.compile
 (`Config.compile_update`); they compile in the warm-up cycle, which is not timed.
@@ -27,6 +29,7 @@ GPU; the matmul rate is the GPU's then, and each timed block ends in a synchroni
 
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
@@ -205,4 +208,12 @@ def run_bench(args) -> int:
         f"limit_ms_per_episode={limit_ms:.1f} share_of_limit={limit_ms / train_ms:.2f} "
         f"grid_cpu_ms_per_episode={grid_cpu_ms:.1f}"
     )
+    if upd_gflops > mm:  # no update outruns its own big matmul on an idle machine
+        print(
+            f"bench: warning: update_share_of_matmul={upd_gflops / mm:.2f} is above 1: "
+            "the reference matmul was timed while something else held the cores, so "
+            "limit_ms_per_episode and share_of_limit are not to be trusted; run bench "
+            "again on an idle machine",
+            file=sys.stderr,
+        )
     return 0
