@@ -249,6 +249,16 @@ def cmd_train(args) -> int:
                 "checkpoint to continue from (killed in its first epoch?); allowed: "
                 "a new folder, or remove its progress.csv to start the run again"
             )
+        kept = [
+            f
+            for f in ("policy.pt", "done.json")
+            if os.path.exists(os.path.join(args.out, f))
+        ]
+        if kept:  # a finished run's policy, or an exported one: not ours to overwrite
+            raise UsageError(
+                f"train: --out {args.out!r} holds {' and '.join(kept)} (a trained "
+                "policy) without a checkpoint to continue from; allowed: a new folder"
+            )
         _check_run_file_kinds(args.out, "--out")
         cfg = Config(**given)
         cfg.resolve()  # the one-line error of a bad option, before a folder is made
@@ -666,6 +676,14 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except (UsageError, ConfigError, CheckpointError) as e:
         print(f"error: {e}", file=sys.stderr)
+        return 2
+    except PermissionError as e:  # a file or folder of the input this user cannot read
+        where = f" {e.filename!r}" if e.filename else ""
+        print(
+            f"error: permission denied{where} ({e.strerror or e}); allowed: files and "
+            "folders this user can read (and write, for outputs)",
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

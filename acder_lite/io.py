@@ -58,13 +58,14 @@ def check_output(
     path: str, option: str, inputs: tuple = (), overwrite: bool = True
 ) -> None:
     """Raise ConfigError (one line naming `option`) unless a command may write its
-    output `path` (checked before any work): not empty, not a folder, no file where a
-    folder above it should be, not one of the command's `inputs`, not a run's own file
-    (`RUN_FILES`), (overwrite=False) not there yet, and a file can be made where it
-    goes: a temporary file in its folder, or in the nearest folder above it that
-    exists, made and removed at once (`write_error` if not). Trap: os.access says yes
-    to root in a folder such as /proc, where no file can be made. The output itself is
-    still written atomically, after the work."""
+    output `path` (checked before any work): not empty, not a folder, not a link, a
+    device or a pipe (the atomic rename would replace it by a plain file), no file
+    where a folder above it should be, not one of the command's `inputs`, not a
+    run's own file (`RUN_FILES`), (overwrite=False) not there yet, and a file can be
+    made where it goes: a temporary file in its folder, or in the nearest folder
+    above it that exists, made and removed at once (`write_error` if not). Trap:
+    os.access says yes to root in a folder such as /proc, where no file can be made.
+    The output itself is still written atomically, after the work."""
     from .config import ConfigError
 
     def bad(what, allowed="another file"):
@@ -74,6 +75,10 @@ def check_output(
         bad("is empty", "a file path")
     if os.path.isdir(path):
         bad("is a folder", "a file path (in a folder)")
+    if os.path.islink(path) or (os.path.exists(path) and not os.path.isfile(path)):
+        # the atomic rename would put a plain file in place of a link, a device
+        # (/dev/null) or a FIFO
+        bad("is a link, a device or a pipe", "a regular file or a new path")
     for up in folders_above(path):
         if os.path.exists(up):
             if not os.path.isdir(up):

@@ -856,3 +856,45 @@ def test_ctrl_c_in_a_command_exits_130(monkeypatch, capsys):
     monkeypatch.setattr(cli, "cmd_eval", interrupted)
     assert cli.main(["eval", "--checkpoint", "x.pt"]) == 130
     assert capsys.readouterr().err == "interrupted\n"
+
+
+def test_outputs_never_replace_a_link_a_device_or_a_trained_policy(cli, tmp_path):
+    """Found by fuzzing: `--json /dev/full` replaced the device by a JSON file (the
+    atomic rename puts a plain file in place of whatever is there), and `train --out`
+    overwrote a folder holding a trained policy but no checkpoint. Each is one line now,
+    and what was there is untouched."""
+    from acder_lite.config import ConfigError
+    from acder_lite.io import check_output
+
+    target = tmp_path / "target.json"
+    target.write_text("keep me")
+    link = tmp_path / "link.json"
+    link.symlink_to(target)
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    for path in (link, fifo, "/dev/null"):
+        with pytest.raises(ConfigError, match="is a link, a device or a pipe"):
+            check_output(str(path), "--json")
+    assert link.is_symlink() and target.read_text() == "keep me"
+    check_output(str(target), "--json")  # a regular file may be overwritten
+    trained = tmp_path / "exported"
+    trained.mkdir()
+    (trained / "policy.pt").write_bytes(b"weights")
+    p = cli("train", "--env", "FetchReach-v4", *TINY, "--out", str(trained))
+    one_line_error(p, "holds policy.pt", "allowed: a new folder")
+    assert os.listdir(trained) == ["policy.pt"]
+    assert (trained / "policy.pt").read_bytes() == b"weights"
+
+
+def test_a_file_this_user_cannot_read_is_one_line(monkeypatch, capsys):
+    """A PermissionError anywhere below a command (an unreadable policy.pt, a run
+    folder that cannot be entered) was a traceback and exit 1."""
+    from acder_lite import cli as C
+
+    def refuse(args):
+        raise PermissionError(13, "Permission denied", "runs/r1/policy.pt")
+
+    monkeypatch.setattr(C, "cmd_eval", refuse)
+    assert C.main(["eval", "--checkpoint", "runs/r1/policy.pt"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "permission denied 'runs/r1/policy.pt'" in line and "allowed:" in line
