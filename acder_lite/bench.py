@@ -36,6 +36,12 @@ import numpy as np
 import torch
 
 
+MAX_CYCLES = 1000
+"""The most timed cycles a bench takes: 1000 are 20 of Push's epochs (8000 training
+episodes, hours here), long past where the time per episode has settled. Trap: a huge
+--cycles ran for ever."""
+
+
 def sync(device) -> None:
     """Wait for the device's queued work (CUDA is asynchronous; the CPU has none)."""
     if torch.device(device).type == "cuda":
@@ -105,8 +111,11 @@ def run_bench(args) -> int:
 
     from .config import ConfigError
 
-    if args.cycles < 1:  # before the Config: bench's own option
-        raise ConfigError(f"cycles={args.cycles} is not allowed: an integer >= 1")
+    if not 1 <= args.cycles <= MAX_CYCLES:  # before the Config: bench's own option
+        raise ConfigError(
+            f"cycles={args.cycles} is not allowed: an integer in [1, {MAX_CYCLES}] "
+            "(each a training cycle: its W x 2 episodes and 40 updates)"
+        )
     both = args.update_dtype == "both"
     cfg = Config(
         env=args.env,

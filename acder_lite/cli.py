@@ -12,8 +12,8 @@ import dataclasses
 import os
 import sys
 
-from .config import ENV_IDS, METHODS, Config, ConfigError, field_docs
-from .io import CheckpointError, checkpoint_config
+from .config import ENV_IDS, MAX_THREADS, METHODS, Config, ConfigError, field_docs
+from .io import CheckpointError, checkpoint_config, probe_write
 from .words import plural
 
 # Config fields that are not command-line options.
@@ -65,12 +65,35 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{self.prog}: {message}")
 
     def parse_args(self, args=None, namespace=None):
+        args = _options_as_values(sys.argv[1:] if args is None else list(args))
         # argparse reports a subcommand's unknown options from the top parser, under
         # its name: say which command's they are, and the option meant if one is close
         ns, extras = self.parse_known_args(args, namespace)
         if extras:
             raise UsageError(_unrecognized(self, ns, extras))
         return ns
+
+
+_OPTIONS_VALUED = ("--train-args",)
+"""Options whose value is itself a command line (sweep's options for train)."""
+
+
+def _options_as_values(argv: list[str]) -> list[str]:
+    """`argv` with the value of an `_OPTIONS_VALUED` option joined to it by "=", so a
+    value that starts with "-" is its value. Trap: argparse took `--train-args
+    '--bogus'` for two options, "expected one argument", naming neither the value nor
+    the option of train it is not."""
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] == "--":  # the rest are values
+            return out + argv[i:]
+        if argv[i] in _OPTIONS_VALUED and i + 1 < len(argv):
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out
 
 
 def _unrecognized(parser: argparse.ArgumentParser, ns, extras: list[str]) -> str:
@@ -160,6 +183,9 @@ def cmd_train(args) -> int:
     from .trainer import Trainer
 
     given = given_options(args)
+    for name in ("out", "resume"):  # "" was read as not given
+        if getattr(args, name) == "":
+            raise UsageError(f"train: --{name} '' is empty; allowed: a run folder")
     if args.resume and args.out:
         raise UsageError(
             f"train: --out {args.out!r} and --resume {args.resume!r} exclude each "
@@ -214,7 +240,7 @@ def cmd_train(args) -> int:
             print(ended)
             return 0
         try:
-            _probe_write(out)
+            probe_write(out)
         except OSError as e:
             raise UsageError(
                 f"train: --resume {out!r} cannot be written ({e.strerror}); "
@@ -433,23 +459,12 @@ def _make_run_folder(out: str) -> None:
             break
     try:
         os.makedirs(out, exist_ok=True)
-        _probe_write(out)
+        probe_write(out)
     except OSError as e:
         raise UsageError(
             f"train: --out {out!r} cannot be made or written ({e.strerror}); "
             "allowed: a folder you can write to"
         ) from None
-
-
-def _probe_write(folder: str) -> None:
-    """Make and remove a file in `folder` (OSError if it takes none). Trap: a folder
-    there already may take no file (/proc, read-only; os.access says yes to root),
-    which train's first write found only after the work, a traceback."""
-    import tempfile
-
-    fd, probe = tempfile.mkstemp(prefix=".probe.", suffix=".tmp", dir=folder)
-    os.close(fd)
-    os.unlink(probe)
 
 
 def _check_run_json(run: str) -> None:
@@ -522,6 +537,10 @@ def cmd_eval(args) -> int:
         )
     if args.seed < 0:
         raise UsageError(f"eval: --seed {args.seed} is not allowed: an integer >= 0")
+    if args.env == "":  # it was read as no --env: the checkpoint's
+        raise UsageError(
+            "eval: --env '' is empty; allowed: the checkpoint's task, or no --env"
+        )
     # runs nothing from the file; checks the policy's keys and shapes
     ckpt = load_torch(args.checkpoint)
     pol = ckpt["policy"]
@@ -607,14 +626,21 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--env", default="FetchPush-v4")
     b.add_argument("--method", default="her")
     b.add_argument("--workers", type=int, default=4)
+    from .bench import MAX_CYCLES
+
     b.add_argument(
         "--cycles",
         type=int,
         default=6,
-        help="timed cycles after one warm-up cycle "
+        help=f"timed cycles after one warm-up cycle, at most {MAX_CYCLES} "
         "(that many of each precision with --update-dtype both)",
     )
-    b.add_argument("--threads", type=int, default=2)
+    b.add_argument(
+        "--threads",
+        type=int,
+        default=2,
+        help=f"CPU threads, as train's --threads: at most {MAX_THREADS} (default: 2)",
+    )
     b.add_argument(
         "--update-dtype",
         default="auto",

@@ -195,6 +195,15 @@ OBS_SETS = ("full", "simplified")
 MAX_WORKERS = 500
 """The most envs a run steps together: `envs.run_env_seeds` gives test env i the seed
 `seed*1000+500+i`, so training env 500 would reset to test env 0's goals."""
+MAX_THREADS = 1024
+"""The most threads a run (or bench, robust, a sweep's cell) takes: above the hardware
+threads of any machine this runs on (a two-socket server of today has 768), a fixed
+number so a config reads the same on every machine. Trap: torch passed 2**31 - 1 on to
+libgomp, whose thread table for it (230 GB) failed: "out of memory", exit 1."""
+THREADS_ALLOWED = (
+    f"an integer in [1, {MAX_THREADS}] (more threads than any machine this runs on has)"
+)
+"""What a threads option allows, in its one-line error."""
 
 # Protocol v1 (experiments/protocol-v1/): what a config.json written before a field
 # existed meant. `Config.from_dict` fills these in, so an old run's recorded config
@@ -405,7 +414,7 @@ class Config:
     threads: int = 2
     """CPU threads of the run (2 uses both cores of this machine): torch's intra-op
     threads, split between the two loss threads under `split_update`, and by default the
-    threads stepping the envs (`step_threads`)."""
+    threads stepping the envs (`step_threads`). At most 1024 (`MAX_THREADS`)."""
     step_threads: int = 0
     """Threads stepping the W envs at once in collection and evaluation (MuJoCo releases
     the GIL). 0: `threads` when it is above 1, else one (sequential). The rollout is the
@@ -577,8 +586,8 @@ class Config:
                 f"an integer in [1, {MAX_WORKERS}] (envs.run_env_seeds: worker "
                 f"{MAX_WORKERS} would get test env 0's seed)",
             )
-        if self.threads >= 2**31:  # torch.set_num_threads takes a C int
-            bad("threads", "an integer >= 1 below 2**31")
+        if self.threads > MAX_THREADS:
+            bad("threads", THREADS_ALLOWED)
         # 0 test episodes: every evaluation a NaN (progress.csv, done.json, export)
         if not isinstance(self.test_episodes, int) or self.test_episodes < 1:
             bad("test_episodes", "an integer >= 1 (each evaluation's episodes)")

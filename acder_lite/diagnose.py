@@ -62,6 +62,18 @@ from .words import count
 from .wraps import GIMBAL_COS, angle_wraps, near_gimbal_lock
 
 
+MAX_BATCHES = 10_000
+"""The most minibatches `--batches` draws: 10^7 rows at the protocol's 1024 a
+minibatch, 2.5 times the 4 x 10^6 transitions a full buffer holds; the error's quantiles
+have settled long before. Trap: a huge --batches ran for ever."""
+MAX_EPISODES = 10_000
+"""The most test episodes `--episodes` rolls out: a thousand times eval's default 10
+(about 20 minutes here, at 0.12 s a Push episode). Trap: a huge --episodes ran for
+ever."""
+BATCHES = 10
+"""The minibatches drawn without --batches."""
+
+
 def state_names(trainer) -> list[str]:
     """Names of the S-ICM state s = (o, g): the observation entries, then the goal's
     (goal.x/y/z, or goal0.x ... goal1.z for the two blocks' targets of
@@ -662,7 +674,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "whose replay buffer is then re-simulated first (minutes)",
     )
     parser.add_argument(
-        "--batches", type=int, default=10, help="minibatches to draw (default: 10)"
+        "--batches",
+        type=int,
+        default=None,
+        help=f"minibatches to draw, at most {MAX_BATCHES} (default: {BATCHES}; not "
+        "with --episodes)",
     )
     parser.add_argument(
         "--episodes",
@@ -671,7 +687,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="instead, roll out the run's policy.pt for N test episodes and report how "
         "it moves the object (tasks with an object; needs no checkpoint). The 4 test "
-        "envs step together, so N is rounded up to a multiple of 4",
+        f"envs step together, so N is rounded up to a multiple of 4; at most "
+        f"{MAX_EPISODES}",
     )
     parser.add_argument(
         "--seed", type=int, default=12345, help="seed of the test envs for --episodes"
@@ -690,13 +707,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    if args.batches < 1:
-        raise ConfigError(f"batches={args.batches} is not allowed: an integer >= 1")
+    if args.batches is not None and args.episodes is not None:
+        # --batches was ignored without a word: the episodes draw no minibatch
+        raise ConfigError(
+            f"--batches {args.batches} and --episodes {args.episodes} exclude each "
+            "other; allowed: --batches N (minibatches of checkpoint.pt) or --episodes "
+            "N (episodes of policy.pt)"
+        )
+    batches = BATCHES if args.batches is None else args.batches
+    if not 1 <= batches <= MAX_BATCHES:
+        raise ConfigError(
+            f"batches={batches} is not allowed: an integer in [1, {MAX_BATCHES}]"
+        )
     if args.episodes is not None and args.episodes < 1:
         # 0 used to fall back on the minibatch diagnosis without a word
         raise ConfigError(
             f"episodes={args.episodes} is not allowed: an integer >= 1 (omit "
             "--episodes for the minibatch diagnosis)"
+        )
+    if args.episodes is not None and args.episodes > MAX_EPISODES:
+        raise ConfigError(
+            f"episodes={args.episodes} is not allowed: an integer in "
+            f"[1, {MAX_EPISODES}]"
         )
     if args.top < 1:
         raise ConfigError(f"top={args.top} is not allowed: an integer >= 1")
@@ -704,7 +736,7 @@ def run(args) -> int:
         raise ConfigError(f"seed={args.seed} is not allowed: an integer >= 0")
     if args.json is not None:  # before the work, not after it
         check_output(args.json, "json")
-    d = diagnose(args.run, args.batches, args.episodes or 0, args.seed, args.top)
+    d = diagnose(args.run, batches, args.episodes or 0, args.seed, args.top)
     print(to_text(d))
     if args.json:
         try:

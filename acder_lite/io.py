@@ -100,6 +100,15 @@ def check_output(
     os.unlink(tmp)
 
 
+def probe_write(folder: str) -> None:
+    """Make and remove a file in `folder` (OSError if it takes none). Trap: a folder
+    there already may take no file (/proc, read-only; os.access says yes to root),
+    which train's first write found only after the work, a traceback."""
+    fd, probe = tempfile.mkstemp(prefix=".probe.", suffix=".tmp", dir=folder)
+    os.close(fd)
+    os.unlink(probe)
+
+
 def folders_above(path: str) -> list[str]:
     """The folders above `path`, nearest first, up to the root."""
     out, p = [], os.path.dirname(os.path.abspath(path))

@@ -331,6 +331,8 @@ def unpack(run_dir: str | Path, env=None) -> dict:
 def run_folders(paths: list[str]) -> list[Path]:
     """The run folders in `paths` (each a run folder, or a folder searched for them):
     every folder that holds a checkpoint.pt or a packed checkpoint, sorted."""
+    if "" in paths:  # Path("") is ".": this folder was packed
+        raise CheckpointError("pack: '' is an empty path; allowed: a folder")
     found = set()
     for p in map(Path, paths):
         if not p.is_dir():

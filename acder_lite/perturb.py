@@ -76,6 +76,11 @@ class Knob:
     drawn: bool = False
     """Its level scales the bench's noise draws, which are made for all the trials at
     once ((W, K, 3) a step): above 0, trial i's outcome depends on the trial count."""
+    most: float = math.inf
+    """The largest level: a metre of camera error (past the size of the table) or a
+    factor of 100, far past any real arm. Trap: 1e308 was taken, and MuJoCo's
+    simulation went unstable ("Nan, Inf or huge value in QACC") under a table that
+    still read like a result."""
 
     def check(self, value: float, horizon: int) -> None:
         """ConfigError (one line: knob, level, what is allowed) unless `value` is a
@@ -89,6 +94,11 @@ class Knob:
                 allowed += f" below the horizon {horizon}"
             raise ConfigError(
                 f"perturb {self.name}={value:g} is not allowed: {allowed}"
+            )
+        if value > self.most:
+            raise ConfigError(
+                f"perturb {self.name}={value:g} is not allowed: {self.allowed}, at "
+                f"most {self.most:g}"
             )
 
 
@@ -106,6 +116,7 @@ KNOBS: dict[str, Knob] = {
             drawn=True,
             doc="Gaussian error on each block's measured position and on what derives "
             "from it",
+            most=1.0,
         ),
         Knob(
             "goal_noise",
@@ -115,6 +126,7 @@ KNOBS: dict[str, Knob] = {
             "a number >= 0 (metres, the std of the camera's error on a target)",
             drawn=True,
             doc="Gaussian error on the target the policy is shown",
+            most=1.0,
         ),
         Knob(
             "action_delay",
@@ -134,6 +146,7 @@ KNOBS: dict[str, Knob] = {
             "a number > 0 (1: the commanded motion)",
             positive=True,
             doc="the end effector moves scale x the commanded displacement",
+            most=100.0,
         ),
         Knob(
             "friction",
@@ -146,6 +159,7 @@ KNOBS: dict[str, Knob] = {
             "which has no block, the table alone: nothing there touches it unless the "
             "gripper is pushed into it)",
             without_block="scales the table alone",
+            most=100.0,
         ),
         Knob(
             "mass",
@@ -156,6 +170,7 @@ KNOBS: dict[str, Knob] = {
             positive=True,
             needs_object=True,
             doc="mass and inertia of every block x scale",
+            most=100.0,
         ),
     )
 }

@@ -254,6 +254,9 @@ def read_plan(path: str | Path) -> list[Cell]:
         if problem:
             raise PlanError(f"{where}: {problem}")
         root = Path(os.path.normpath(path.parent / g.get("root", ".")))
+        problem = _same_as_problem(g, path.parent, root)
+        if problem:
+            raise PlanError(f"{where}: {problem}")
         for env, method, seed in itertools.product(g["envs"], g["methods"], g["seeds"]):
             out = run_dir(root, env, g.get("name", method), seed)
             cell = Cell(
@@ -330,9 +333,44 @@ def _check_group(g: dict) -> str | None:
     return None
 
 
-def check_names(envs, methods, seeds) -> str | None:
-    """Unknown names and repeated seeds: what Config cannot see,
-    since it checks one cell."""
+def _same_as_problem(g: dict, here: Path, root: Path) -> str | None:
+    """A group's `same_as` that names no folder of runs a cell could ever be copied
+    from, as one line (None if it can): a file (or a path under one), or the group's
+    own run folders. Trap: the cells waited for ever ('its same_as run ... has not
+    finished'), the sweep saying nothing more."""
+    if "same_as" not in g:
+        return None
+    source = Path(os.path.normpath(here / g["same_as"]))
+    for p in [source, *source.parents]:
+        if p.exists():
+            if not p.is_dir():
+                return (
+                    f"same_as {g['same_as']!r} is "
+                    + ("a file" if p == source else f"under {str(p)!r}, a file")
+                    + "; allowed: a folder of seed<k> runs"
+                )
+            break
+    for seed in g["seeds"]:
+        run = source / f"seed{seed}"
+        if run.exists() and not run.is_dir():
+            return (
+                f"same_as {g['same_as']!r}: its seed{seed} is a file; allowed: a "
+                "folder of seed<k> runs"
+            )
+    own = run_dir(root, g["envs"][0], g.get("name", g["methods"][0]), 0).parent
+    if source.resolve() == own.resolve():
+        return (
+            f"same_as {g['same_as']!r} is where the group's own runs go; allowed: "
+            "the folder of another group's runs"
+        )
+    return None
+
+
+def check_names(envs, methods, seeds, dashes: str = "") -> str | None:
+    """Unknown names, and an env, method or seed given twice: what Config cannot see,
+    since it checks one cell; the keys named as a plan has them, or (`dashes` "--") as
+    sweep's options. Trap: `--envs X X` planned the cell twice, two tasks training
+    into one folder."""
     for env in envs:
         if not isinstance(env, str) or env not in ENV_IDS:
             return f"unknown env {env!r}; allowed: {', '.join(ENV_IDS)}"
@@ -343,8 +381,10 @@ def check_names(envs, methods, seeds) -> str | None:
         return "seeds must be integers >= 0"
     if any(s >= 2**64 for s in seeds):
         return "seeds must be integers < 2**64 (torch.manual_seed's range)"
-    if len(set(seeds)) != len(seeds):
-        return "seeds must be distinct"
+    for key, values in (("envs", envs), ("methods", methods), ("seeds", seeds)):
+        twice = next((v for i, v in enumerate(values) if v in values[:i]), None)
+        if twice is not None:
+            return f"{dashes}{key} gives {twice!r} twice; allowed: each {key[:-1]} once"
     return None
 
 

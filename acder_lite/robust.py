@@ -36,7 +36,14 @@ import os
 import numpy as np
 
 from . import envs as E
-from .config import ENV_IDS, OBJECT_ENVS, OBS_SETS, ConfigError
+from .config import (
+    ENV_IDS,
+    MAX_THREADS,
+    OBJECT_ENVS,
+    OBS_SETS,
+    THREADS_ALLOWED,
+    ConfigError,
+)
 from .io import (
     CheckpointError,
     check_output,
@@ -515,7 +522,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         return f"; on Reach it {k.without_block}" if k.without_block else ""
 
     knobs = "; ".join(
-        f"{k.name} ({k.unit}, default {levels(k)}{where(k)})" for k in KNOBS.values()
+        f"{k.name} ({k.unit}, default {levels(k)}"
+        + (f", at most {k.most:g}" if math.isfinite(k.most) else "")
+        + f"{where(k)})"
+        for k in KNOBS.values()
     )
     p.add_argument(
         "--perturb",
@@ -541,7 +551,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         + " or ".join(OBS_SETS)
         + " (default: the policy's)",
     )
-    p.add_argument("--threads", type=int, default=1, help="torch threads (default: 1)")
+    p.add_argument(
+        "--threads",
+        type=int,
+        default=1,
+        help=f"torch threads, at most {MAX_THREADS} (default: 1)",
+    )
     p.add_argument(
         "--json",
         metavar="FILE",
@@ -566,10 +581,8 @@ def run(args) -> int:
         raise ConfigError(
             f"tolerance={args.tolerance:g} is not allowed: a number > 0 (metres)"
         )
-    if not 1 <= args.threads < 2**31:  # torch.set_num_threads takes a C int
-        raise ConfigError(
-            f"threads={args.threads} is not allowed: an integer >= 1 below 2**31"
-        )
+    if not 1 <= args.threads <= MAX_THREADS:  # past it libgomp's thread table failed
+        raise ConfigError(f"threads={args.threads} is not allowed: {THREADS_ALLOWED}")
     if args.obs is not None and args.obs not in OBS_SETS:
         allowed = " or ".join(repr(x) for x in OBS_SETS)
         raise ConfigError(f"obs={args.obs!r} is not allowed: {allowed}")

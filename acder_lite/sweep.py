@@ -42,7 +42,8 @@ import time
 from pathlib import Path
 
 from . import cluster, grid_time, same_as
-from .config import Config, ConfigError
+from .config import MAX_THREADS, THREADS_ALLOWED, Config, ConfigError
+from .io import probe_write
 from .precision import usable_cpus
 from .plan import (
     Cell,
@@ -78,6 +79,23 @@ _PASSED = (
     "stop_gap_episodes",
 )
 """Sweep options that are Config fields, passed to every cell's train."""
+
+
+class _Once(argparse.Action):
+    """An option that may be given once: a second one is refused. Trap: argparse's
+    store let it replace the first without a word (`--train-args '--cycles 2'
+    --train-args '--batch-size 16'` trained the task's preset cycles)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        seen = f"_{self.dest}_given"
+        if getattr(namespace, seen, False):
+            raise argparse.ArgumentError(
+                self,
+                f"given twice ({getattr(namespace, self.dest)!r}, then {values!r}); "
+                "allowed: once, with all its options in one quoted string",
+            )
+        setattr(namespace, seen, True)
+        setattr(namespace, self.dest, values)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -128,7 +146,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--threads",
         type=int,
         default=1,
-        help="CPUs each cell reserves, and its torch threads (default: 1)",
+        help=f"CPUs each cell reserves, and its torch threads, at most {MAX_THREADS} "
+        "(default: 1)",
     )
     parser.add_argument("--epochs", type=int, default=None, help="passed to train")
     parser.add_argument("--workers", type=int, default=None, help="passed to train")
@@ -146,6 +165,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--train-args",
+        action=_Once,
         default="",
         metavar="'ARGS'",
         help="more options for train, one quoted string: --train-args='--cycles 2'",
@@ -169,6 +189,14 @@ def check_args(args) -> str | None:
     Fills the default of jobs. Config's verdict on them, cell by cell, is
     `check_cells` (after planning: a plan's pairs are in its file)."""
     grid = [args.envs, args.methods, args.seeds]
+    # "" was no --results (results/), no --address (a local Ray), or "." for --plan
+    for name, allowed in (
+        ("plan", "a plan file"),
+        ("results", "a folder"),
+        ("address", "'auto' or HOST:PORT"),
+    ):
+        if getattr(args, name) == "":
+            return f"--{name} '' is empty; allowed: {allowed}"
     if args.plan is not None:
         if any(x is not None for x in grid):
             return (
@@ -183,7 +211,7 @@ def check_args(args) -> str | None:
     elif any(x is None for x in grid):
         return "--envs, --methods and --seeds are required (or --plan FILE)"
     else:
-        problem = check_names(*grid)
+        problem = check_names(*grid, dashes="--")
         if problem:
             return problem
         problem = check_pairs(args.envs, args.methods)
@@ -192,8 +220,8 @@ def check_args(args) -> str | None:
                 f"--envs x --methods: {problem}; a grid with gaps is a plan "
                 "file (--plan), one group per gapless grid"
             )
-    if args.threads < 1:
-        return f"--threads={args.threads} is not allowed: an integer >= 1"
+    if not 1 <= args.threads <= MAX_THREADS:  # Ray reserves them: no node has more
+        return f"--threads={args.threads} is not allowed: {THREADS_ALLOWED}"
     if args.jobs is None:
         args.jobs = max(1, usable_cpus() // args.threads)
     if args.jobs < 1:
@@ -270,6 +298,9 @@ def check_cells(cells: list[Cell], args) -> str | None:
         if key in seen:
             continue
         seen.add(key)
+        problem = _overrides_plan(c, passed_options(args), given)
+        if problem:
+            return problem
         for prefix, extra in (("", {}), ("--train-args: ", given)):
             try:
                 Config(
@@ -280,6 +311,23 @@ def check_cells(cells: list[Cell], args) -> str | None:
                 ).resolve()
             except ConfigError as e:
                 return f"{prefix}{e}; on the pair ({c.env}, {c.method})"
+    return None
+
+
+def _overrides_plan(cell: Cell, passed: dict, given: dict) -> str | None:
+    """A sweep option (`passed`) or a --train-args one (`given`) that sets a field of
+    the cell's plan `config` to another value, as one line. Trap: the sweep's options
+    came after the plan's in train's command line and won without a word (a plan's
+    `epochs = 40` trained `sweep --epochs`'s 5); the plan is the grid's record."""
+    for options, how in ((passed, ""), (given, " in --train-args")):
+        for name, value in options.items():
+            if name in cell.options and cell.options[name] != value:
+                return (
+                    f"--{name.replace('_', '-')} {value!r}{how} differs from the "
+                    f"plan's config {name} = {cell.options[name]!r} of {cell.name}; "
+                    f"allowed: the plan's value, or no --{name.replace('_', '-')} "
+                    "(change the plan file)"
+                )
     return None
 
 
@@ -295,6 +343,30 @@ def check_folders(cells: list[Cell]) -> str | None:
                         "allowed: a folder (or a path not yet there)"
                     )
                 break
+    return None
+
+
+def check_writable(cells: list[Cell]) -> str | None:
+    """A folder the cells to train or copy cannot be written in, as one line: for each
+    such cell the nearest folder there of its run folder (its run folder, or the one
+    its run folder is to be made in), probed once with a file made and removed
+    (`io.probe_write`). Trap: the dry run said "1 to run" of a results root no file
+    can be made in (/proc/x; os.access says yes to root), and each cell then failed."""
+    probed = set()
+    for c in cells:
+        if c.action == "skip":
+            continue
+        folder = next(p for p in [c.out, *c.out.parents] if p.is_dir())
+        if folder in probed:
+            continue
+        probed.add(folder)
+        try:
+            probe_write(str(folder))
+        except OSError as e:
+            return (
+                f"results folder {str(folder)!r} cannot be written ({e.strerror}), "
+                f"where {c.name} is to go; allowed: a folder you can write to"
+            )
     return None
 
 
@@ -608,7 +680,7 @@ def run(args) -> int:
         return bad(e)
     if problem:
         return bad(problem)
-    problem = check_folders(cells)
+    problem = check_folders(cells) or check_writable(cells)
     if problem:
         return bad(problem)
     # before the dry run too: it said nothing of an --address the real run refuses

@@ -492,6 +492,14 @@ def read_planned(args, root: Path) -> dict:
 def run(args) -> int:
     """Print Table I from the runs under --results;
     2 with a one-line error if none can be read."""
+    for name in ("results", "plan"):  # Path("") is ".": read as this folder (or none)
+        if getattr(args, name) == "":
+            print(
+                f"error: table: --{name} '' is empty; allowed: a "
+                + ("folder of runs" if name == "results" else "plan file (TOML)"),
+                file=sys.stderr,
+            )
+            return 2
     root = Path(args.results)
     if args.resamples is not None and args.resamples < 1:
         print(

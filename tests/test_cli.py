@@ -76,10 +76,12 @@ def one_line_error(p, *needles):
         (["--alpha-base", "1"], ["alpha_base=1.0", "finite number > 1", "10e"]),
         (["--candidate-success", "all"], ["candidate_success", "'final'", "'any'"]),
         (["--intrinsic-timing", "now"], ["intrinsic_timing", "'before'", "'after'"]),
-        # past int64 (or torch's C int of threads): a traceback from torch or numpy
+        # past int64: a traceback from torch or numpy
         (["--hidden", str(10**23)], ["hidden=", "below 2**63"]),
         (["--layers", str(10**23)], ["layers=", "below 2**63"]),
-        (["--threads", str(2**31)], ["threads=", "below 2**31"]),
+        # found by fuzzing: libgomp's "Out of memory allocating 231928235112 bytes",
+        # exit 1, and an empty run folder left behind
+        (["--threads", str(2**31 - 1)], ["threads=2147483647", "[1, 1024]"]),
     ],
 )
 def test_train_bad_input(cli, tmp_path, args, needles):
@@ -106,7 +108,7 @@ def test_an_out_that_cannot_be_a_run_folder(cli, tmp_path):
     p = cli("train", "--env", "FetchReach-v4", *TINY, "--out", "/proc")
     one_line_error(p, "--out '/proc'", "cannot be made or written", "allowed:")
     assert f.read_text() == "keep me" and os.listdir(tmp_path) == ["notes.txt"]
-    one_line_error(cli("bench", "--cycles", "0"), "cycles=0", ">= 1")
+    one_line_error(cli("bench", "--cycles", "0"), "cycles=0", "in [1, 1000]")
 
 
 def test_protocol_settings_reach_config_json(cli, tmp_path):
@@ -253,7 +255,11 @@ def _bad_input_on_a_finished_run(cli, tmp_path, out):
             ("robust", str(out), "--csv", str(out / "progress.csv")),
             ["csv=", "would overwrite a run's file"],
         ),
-        (("robust", str(out), "--threads", str(2**31)), ["threads=", "below 2**31"]),
+        (("robust", str(out), "--threads", str(2**31 - 1)), ["threads=", "1024]"]),
+        (
+            ("robust", str(out), "--perturb", "friction=1e308"),
+            ["friction=1e+308", "most 100"],
+        ),
         # numpy's "Maximum allowed dimension exceeded": the out-of-memory line, naming
         # the command's own size, not train's
         (
@@ -308,7 +314,7 @@ def test_resume_into_a_folder_that_takes_no_file(tmp_path, capsys, monkeypatch):
     def refused(folder):
         raise PermissionError(1, "Operation not permitted")
 
-    monkeypatch.setattr(cli, "_probe_write", refused)
+    monkeypatch.setattr(cli, "probe_write", refused)
     capsys.readouterr()
     assert cli.main(["train", "--resume", str(out), "--epochs", "2", "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -898,3 +904,180 @@ def test_a_file_this_user_cannot_read_is_one_line(monkeypatch, capsys):
     assert C.main(["eval", "--checkpoint", "runs/r1/policy.pt"]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert "permission denied 'runs/r1/policy.pt'" in line and "allowed:" in line
+
+
+def _error_line(capsys) -> str:
+    """The one line an in-process command wrote to stderr (no traceback)."""
+    err = capsys.readouterr().err
+    lines = [line for line in err.strip().splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+REACH_GRID = "sweep --envs FetchReach-v4 --methods her --seeds 0".split()
+"""A one-cell sweep, before its --results and --dry-run (no Ray is started)."""
+
+
+def test_threads_are_bounded_in_every_command(capsys, tmp_path):
+    """Found by fuzzing: --threads 2147483647 (below the C int that torch takes)
+    reached libgomp, whose thread table failed ("Out of memory allocating
+    231928235112 bytes", exit 1). Config, bench, sweep and robust refuse more than
+    MAX_THREADS = 1024 in one line; 1024 itself passes Config."""
+    from acder_lite.cli import main
+    from acder_lite.config import MAX_THREADS, Config, ConfigError
+
+    Config(threads=MAX_THREADS).validate()
+    with pytest.raises(
+        ConfigError, match=r"threads=1025 is not allowed: .*\[1, 1024\]"
+    ):
+        Config(threads=MAX_THREADS + 1).validate()
+    big = str(2**31 - 1)
+    assert main(["bench", "--threads", big, "--cycles", "1"]) == 2
+    assert "threads=2147483647 is not allowed" in _error_line(capsys)
+    argv = [*REACH_GRID, "--results", str(tmp_path), "--dry-run"]
+    assert main([*argv, "--threads", big]) == 2
+    line = _error_line(capsys)
+    assert "sweep: --threads=2147483647 is not allowed: an integer in [1, 1024]" in line
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_sweep_refuses_a_name_given_twice(capsys, tmp_path):
+    """Found by fuzzing: `--envs X X` (or a method given twice) planned the same cell
+    twice, two tasks for one folder; refused like a repeated seed, naming the option
+    and the value."""
+    from acder_lite.cli import main
+
+    for option, values, line in (
+        ("--envs", ["FetchReach-v4"] * 2, "--envs gives 'FetchReach-v4' twice"),
+        ("--methods", ["her", "her"], "--methods gives 'her' twice"),
+        ("--seeds", ["0", "1", "0"], "--seeds gives 0 twice"),
+    ):
+        grid = {"--envs": ["FetchReach-v4"], "--methods": ["her"], "--seeds": ["0"]}
+        grid[option] = values
+        argv = ["sweep", *[a for k, v in grid.items() for a in (k, *v)]]
+        assert main([*argv, "--results", str(tmp_path), "--dry-run"]) == 2
+        assert line + "; allowed: each" in _error_line(capsys)
+
+
+def test_counts_that_would_run_for_ever_are_refused(capsys, tmp_path):
+    """Found by fuzzing: `bench --cycles 10**20`, `diagnose --batches 10**14` and
+    `diagnose --episodes 10**14` ran for ever. Each has an upper bound (bench's
+    MAX_CYCLES, diagnose's MAX_BATCHES and MAX_EPISODES), checked before anything is
+    read; and diagnose's --batches with --episodes, where --batches was ignored
+    without a word, is refused."""
+    from acder_lite.cli import main
+
+    for argv, needle in (
+        (["bench", "--cycles", str(10**20)], "an integer in [1, 1000]"),
+        (["diagnose", str(tmp_path), "--batches", str(10**14)], "in [1, 10000]"),
+        (["diagnose", str(tmp_path), "--episodes", str(10**14)], "in [1, 10000]"),
+        (
+            ["diagnose", str(tmp_path), "--episodes", "4", "--batches", "3"],
+            "--batches 3 and --episodes 4 exclude each other; allowed:",
+        ),
+    ):
+        assert main(argv) == 2
+        assert needle in _error_line(capsys), argv
+
+
+def test_an_empty_path_or_name_is_one_line_before_anything_is_done(
+    capsys, tmp_path, monkeypatch
+):
+    """Found by fuzzing: '' was read as "not given" (table's and sweep's --results
+    fell back on results/, eval's --env on the checkpoint's, sweep's --address on a
+    local Ray) or as "." (`pack ''` packed the current folder). Each is one line now,
+    and nothing is read or written."""
+    from acder_lite.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "checkpoint.pt").write_bytes(b"not read")
+    for argv, needle in (
+        (["table", "--results", ""], "table: --results '' is empty; allowed:"),
+        (["table", "--plan", ""], "table: --plan '' is empty; allowed:"),
+        ([*REACH_GRID, "--results", "", "--dry-run"], "--results '' is empty"),
+        (["sweep", "--plan", "", "--dry-run"], "sweep: --plan '' is empty"),
+        ([*REACH_GRID, "--address", "", "--dry-run"], "--address '' is empty"),
+        (["eval", "--checkpoint", "run/policy.pt", "--env", ""], "--env '' is empty"),
+        (["pack", ""], "pack: '' is an empty path; allowed: a folder"),
+        (["pack", "run", ""], "pack: '' is an empty path; allowed: a folder"),
+        (["train", "--out", ""], "train: --out '' is empty; allowed: a run folder"),
+        (["train", "--resume", ""], "train: --resume '' is empty"),
+    ):
+        assert main(argv) == 2
+        assert needle in _error_line(capsys), argv
+    assert sorted(os.listdir(tmp_path)) == ["run"]
+    assert os.listdir(run) == ["checkpoint.pt"]
+
+
+def _plan(tmp_path, text: str):
+    """A one-cell plan file (FetchReach-v4, her, seed 0) with `text` added to its
+    group."""
+    path = tmp_path / "plan.toml"
+    path.write_text(
+        "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n" + text
+    )
+    return str(path)
+
+
+def test_sweep_options_that_were_settled_silently(capsys, tmp_path):
+    """Found by fuzzing: a second --train-args replaced the first; `sweep --epochs 5`
+    (or --train-args '--cycles 2') replaced a plan's config value; and `--train-args
+    '--bogus'` was argparse's "expected one argument", naming neither. Each is one line
+    now; a sweep option equal to the plan's value is taken."""
+    from acder_lite.cli import main
+
+    plan = _plan(tmp_path, "config = { epochs = 3, cycles = 4 }\n")
+    for argv, needle in (
+        (
+            ["--train-args", "--cycles 2", "--train-args", "--batch-size 16"],
+            "argument --train-args: given twice ('--cycles 2', then '--batch-size 16')",
+        ),
+        (
+            ["--epochs", "5"],
+            "--epochs 5 differs from the plan's config epochs = 3 of "
+            "FetchReach-v4/her/seed0; allowed: the plan's value, or no --epochs",
+        ),
+        (["--train-args", "--cycles 2"], "--cycles 2 in --train-args differs"),
+        (["--train-args", "--bogus"], "--train-args: unrecognized arguments: --bogus"),
+    ):
+        assert main(["sweep", "--plan", plan, *argv, "--dry-run"]) == 2
+        assert needle in _error_line(capsys), argv
+    assert main(["sweep", "--plan", plan, "--epochs", "3", "--dry-run"]) == 0
+    assert "1 to run" in capsys.readouterr().out
+    assert sorted(os.listdir(tmp_path)) == ["plan.toml"]
+
+
+def test_a_same_as_that_can_never_be_copied_is_refused(capsys, tmp_path):
+    """Found by fuzzing: a plan group whose same_as is a file, or the folder its own
+    runs go to, waited for ever ("its same_as run ... has not finished"); refused when
+    the plan is read."""
+    from acder_lite.cli import main
+    from acder_lite.plan import PlanError, read_plan
+
+    (tmp_path / "notes.txt").write_text("keep me")
+    for same_as, needle in (
+        ("notes.txt", "same_as 'notes.txt' is a file; allowed: a folder of seed<k>"),
+        ("notes.txt/x", "same_as 'notes.txt/x' is under"),
+        ("FetchReach-v4/her", "is where the group's own runs go; allowed:"),
+        ("./FetchReach-v4/../FetchReach-v4/her", "is where the group's own runs go"),
+    ):
+        plan = _plan(tmp_path, f"same_as = '{same_as}'\n")
+        with pytest.raises(PlanError, match="group 1: same_as"):
+            read_plan(plan)
+        assert main(["sweep", "--plan", plan, "--dry-run"]) == 2
+        assert needle in _error_line(capsys), same_as
+    # another folder, not there yet: its runs may still come, so the cell waits
+    cells = read_plan(_plan(tmp_path, "same_as = 'elsewhere'\n"))
+    assert cells[0].action == "skip" and cells[0].note.startswith("waits: ")
+
+
+def test_a_dry_run_says_when_its_results_cannot_be_written(capsys):
+    """Found by fuzzing: `sweep --dry-run --results /proc/x` said "1 to run" (os.access
+    says yes to root), and every cell would have failed in its task."""
+    from acder_lite.cli import main
+
+    assert main([*REACH_GRID, "--results", "/proc/acder-x", "--dry-run"]) == 2
+    line = _error_line(capsys)
+    assert "results folder '/proc' cannot be written" in line and "allowed:" in line

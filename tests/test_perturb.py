@@ -34,9 +34,19 @@ def test_parse_perturb_defaults_and_errors():
         ("action_delay=50", "below the horizon 50"),
         ("friction=0", "a number > 0"),
         ("mass=nan", "a number > 0"),
+        # found by fuzzing: 1e308 was taken, and MuJoCo went unstable under the table
+        ("mass=1e308", r"mass=1e\+308 is not allowed: .*, at most 100$"),
+        ("friction=101", "at most 100"),
+        ("action_scale=1e308", "at most 100"),
+        ("obs_noise=1.5", r"obs_noise=1.5 is not allowed: .*, at most 1$"),
+        ("goal_noise=1e308", "at most 1"),
     ):
         with pytest.raises(ConfigError, match=needle):
             parse_perturb([spec], "FetchPush-v4", 50)
+    assert parse_perturb(["mass=100", "obs_noise=1"], "FetchPush-v4", 50) == {
+        "mass": [100.0],
+        "obs_noise": [1.0],
+    }  # the bounds themselves are levels
     with pytest.raises(ConfigError, match="needs a block; FetchReach-v4 has none"):
         parse_perturb(["mass=2"], "FetchReach-v4", 50)
 

@@ -410,11 +410,16 @@ def test_reading_of_one_trial_is_singular():
 def test_perturb_help_says_which_knobs_need_a_block(cli):
     text = " ".join(cli("robust", "--help").stdout.split())
     assert (
-        "obs_noise (m, default 0,0.005,0.01,0.02; needs a block: not on Reach)" in text
+        "obs_noise (m, default 0,0.005,0.01,0.02, at most 1; needs a block: not on "
+        "Reach)" in text
     )
-    assert "mass (x, default 0.5,1,2; needs a block: not on Reach)" in text
-    assert "friction (x, default 0.5,1,2; on Reach it scales the table alone)" in text
-    assert "goal_noise (m, default 0,0.005,0.01,0.02)" in text
+    assert "mass (x, default 0.5,1,2, at most 100; needs a block: not on Reach)" in text
+    assert (
+        "friction (x, default 0.5,1,2, at most 100; on Reach it scales the table alone)"
+        in text
+    )
+    assert "goal_noise (m, default 0,0.005,0.01,0.02, at most 1)" in text
+    assert "action_delay (steps, default 0,1,2)" in text  # bounded by the horizon
     assert "on Reach, which has no block, the table alone" in KNOBS["friction"].doc
     # which knobs apply is unchanged (committed robust.json files depend on it)
     assert list(parse_perturb(None, "FetchReach-v4", 50)) == [
