@@ -524,6 +524,11 @@ def _check_run_file_kinds(run: str, option: str) -> None:
             )
 
 
+MAX_EVAL_EPISODES = 10_000
+"""The most episodes `eval` runs: a thousand times its default, about 20 minutes of
+Push here. Trap: a huge --episodes ran for ever."""
+
+
 def cmd_eval(args) -> int:
     import numpy as np
 
@@ -531,9 +536,10 @@ def cmd_eval(args) -> int:
     from .io import load_torch
     from .rollout import Policy, run_episodes
 
-    if args.episodes < 1:
+    if not 1 <= args.episodes <= MAX_EVAL_EPISODES:
         raise UsageError(
-            f"eval: --episodes {args.episodes} is not allowed: an integer >= 1"
+            f"eval: --episodes {args.episodes} is not allowed: an integer in "
+            f"[1, {MAX_EVAL_EPISODES}]"
         )
     if args.seed < 0:
         raise UsageError(f"eval: --seed {args.seed} is not allowed: an integer >= 0")
@@ -606,7 +612,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--episodes",
         type=int,
         default=10,
-        help="deterministic test episodes to run (default: 10)",
+        help="deterministic test episodes to run, at most "
+        f"{MAX_EVAL_EPISODES} (default: 10)",
     )
     e.add_argument(
         "--env",

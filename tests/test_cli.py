@@ -171,7 +171,10 @@ def test_existing_run_is_not_overwritten_and_checkpoint_errors(cli, tmp_path):
     p = cli("eval", "--checkpoint", str(tmp_path / "missing.pt"))
     one_line_error(p, "does not exist", "allowed: a checkpoint.pt")
     p = cli("eval", "--checkpoint", str(out / "checkpoint.pt"), "--episodes", "0")
-    one_line_error(p, "--episodes", ">= 1")
+    one_line_error(p, "--episodes", "in [1, 10000]")
+    # a huge count ran for ever
+    p = cli("eval", "--checkpoint", str(out / "checkpoint.pt"), "--episodes", "10001")
+    one_line_error(p, "--episodes 10001", "in [1, 10000]")
     p = cli("eval", "--checkpoint", str(out / "policy.pt"), "--seed", "-1")
     one_line_error(p, "--seed -1", ">= 0")
     one_line_error(cli("eval", "--checkpoint", str(out)), "is a folder", "policy.pt")
