@@ -571,7 +571,7 @@ def test_eval_help_gives_the_defaults(capsys):
     with pytest.raises(SystemExit):
         build_parser().parse_args(["eval", "--help"])
     out = " ".join(capsys.readouterr().out.split())
-    assert "test episodes to run (default: 10)" in out
+    assert "test episodes to run, at most 10000 (default: 10)" in out
     assert "(default: 12345)" in out
 
 
