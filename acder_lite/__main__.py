@@ -1,5 +1,11 @@
 import sys
 
 from .cli import main
+from .signals import end_on_signals
 
-sys.exit(main())
+try:
+    code = main()
+except KeyboardInterrupt:  # a second Ctrl-C as main returned from the first
+    code = 130
+end_on_signals()  # only exiting now: a Ctrl-C ends the process, no traceback
+sys.exit(code)

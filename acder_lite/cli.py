@@ -198,15 +198,14 @@ def cmd_train(args) -> int:
         ckpt_path = os.path.join(args.resume, "checkpoint.pt")
         ckpt = load_torch(ckpt_path) if os.path.exists(ckpt_path) else None
         later, note = packed.later_than(args.resume, ckpt)
-        if note:
-            print(f"resume: {note}; resuming from checkpoint.pt", file=sys.stderr)
+        if note:  # said with the warnings, once the options have passed
+            note = f"resume: {note}; resuming from checkpoint.pt"
+        packed_files = None
         if later:  # a run carried over from another machine: its buffer re-simulated
-            print(
-                f"resume: rebuilding {args.resume}'s replay buffer from "
-                f"{packed.FOLDER}/ (re-simulated, checked against its digest)",
-                file=sys.stderr,
-            )
-            ckpt = packed.unpack(args.resume)
+            # (`packed.unpack`, minutes) once its files are read whole and the options
+            # checked against its state; until then `ckpt` is that state
+            packed_files = packed.read(args.resume)
+            ckpt = packed_files[0]
             ckpt_path = os.path.join(args.resume, packed.FOLDER)
         elif ckpt is None:
             if not os.path.exists(ckpt_path):
@@ -237,6 +236,8 @@ def cmd_train(args) -> int:
         out = args.resume
         ended = _resume_budget(out, ckpt, cfg)
         if ended:  # not an error, and no file is rewritten
+            if note:
+                print(note, file=sys.stderr)
             print(ended)
             return 0
         try:
@@ -246,6 +247,13 @@ def cmd_train(args) -> int:
                 f"train: --resume {out!r} cannot be written ({e.strerror}); "
                 "allowed: a run folder you can write to"
             ) from None
+        if packed_files is not None:
+            print(
+                f"resume: rebuilding {args.resume}'s replay buffer from "
+                f"{packed.FOLDER}/ (re-simulated, checked against its digest)",
+                file=sys.stderr,
+            )
+            ckpt = packed.unpack(args.resume, files=packed_files)
         trainer = Trainer(cfg, out, command=_command_line(args.argv))
         try:
             trainer.load_state_dict(ckpt)
@@ -286,6 +294,14 @@ def cmd_train(args) -> int:
                 "policy) without a checkpoint to continue from; allowed: a new folder"
             )
         _check_run_file_kinds(args.out, "--out")
+        from .runs import run_folder_above
+
+        above = run_folder_above(args.out)
+        if above:  # table, pack and sweep would find it as a run of its own in that one
+            raise UsageError(
+                f"train: --out {args.out!r} is inside the run folder {str(above[0])!r} "
+                f"(it holds {above[1]}); allowed: a folder outside every run folder"
+            )
         cfg = Config(**given)
         cfg.resolve()  # the one-line error of a bad option, before a folder is made
         made = not os.path.exists(args.out)
@@ -298,10 +314,11 @@ def cmd_train(args) -> int:
             if made and not os.listdir(out):
                 os.rmdir(out)
             raise
+        note = ""
     from .precision import threads_warning, warning_if_slow
 
     slow = warning_if_slow(trainer.cfg.update_dtype)
-    for warning in (slow, threads_warning(trainer.cfg.threads)):
+    for warning in (note, slow, threads_warning(trainer.cfg.threads)):
         if warning:
             print(warning, file=sys.stderr)
     from .signals import interrupt_on_signals

@@ -501,8 +501,9 @@ def diagnose(
     if not os.path.exists(path) and packed.has_packed(run_dir):
         # a run carried over in git (`pack`): its buffer is re-simulated, minutes
         path = os.path.join(run_dir, packed.FOLDER)
+        files = packed.read(run_dir)  # a damaged file: its one line, said first
         print(f"diagnose: rebuilding the replay buffer from {path}", file=sys.stderr)
-        ckpt = packed.unpack(run_dir)
+        ckpt = packed.unpack(run_dir, files=files)
     elif not os.path.exists(path) and os.path.isfile(
         os.path.join(run_dir, "policy.pt")
     ):

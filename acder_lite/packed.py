@@ -295,21 +295,21 @@ def later_than(run_dir: str | Path, ckpt: dict | None) -> tuple[bool, str]:
         return False, f"{FOLDER}/ passed over: {e}"
 
 
-def unpack(run_dir: str | Path, env=None) -> dict:
-    """The full checkpoint (as `load_torch` gives checkpoint.pt) from the packed folder
-    of `run_dir`: the buffer re-simulated and checked (`rebuild`). `env`: a Fetch env
-    of the run's task and observation set (None: made here)."""
+def read(run_dir: str | Path) -> tuple[dict, list[dict]]:
+    """The packed folder of `run_dir` read whole, nothing re-simulated yet: its state
+    (`read_state`: the checkpoint without the buffer's arrays) and the chunks it
+    names. CheckpointError (one line) for any file missing, truncated or foreign, so
+    a damaged folder is refused before the minutes of `unpack`."""
     folder = Path(run_dir) / FOLDER
-    ckpt = read_state(run_dir)
-    meta = ckpt.pop("buffer")
-    ckpt.pop("packed_format")
+    state = read_state(run_dir)
     chunks = []
-    for name in meta["chunks"]:
+    for name in state["buffer"]["chunks"]:
         try:
             chunks.append(_read_chunk(folder / name))
         except FileNotFoundError:
             raise CheckpointError(
-                f"packed checkpoint {str(folder)!r}: chunk {name} is missing"
+                f"packed checkpoint {str(folder)!r}: chunk {name} is missing; "
+                "allowed: a folder `pack` wrote, with every chunk its state.pt.gz names"
             ) from None
         except Exception as e:  # a truncated or foreign .npz
             raise CheckpointError(
@@ -317,7 +317,22 @@ def unpack(run_dir: str | Path, env=None) -> dict:
                 f"({type(e).__name__}); allowed: a folder `pack` wrote"
             ) from None
     if not chunks:
-        raise CheckpointError(f"packed checkpoint {str(folder)!r} names no chunk")
+        raise CheckpointError(
+            f"packed checkpoint {str(folder)!r} names no chunk; allowed: a folder "
+            "`pack` wrote"
+        )
+    return state, chunks
+
+
+def unpack(run_dir: str | Path, env=None, files=None) -> dict:
+    """The full checkpoint (as `load_torch` gives checkpoint.pt) from the packed folder
+    of `run_dir`: the buffer re-simulated and checked (`rebuild`). `env`: a Fetch env
+    of the run's task and observation set (None: made here); `files`: what `read` gave
+    for the folder, if it has been read already (None: read here)."""
+    state, chunks = read(run_dir) if files is None else files
+    ckpt = dict(state)  # `files` stays as it was
+    meta = ckpt.pop("buffer")
+    ckpt.pop("packed_format")
     if env is None:
         cfg = ckpt["config"]
         env = E.make_env(cfg["env"], seed=0, obs=cfg.get("obs", "full"))

@@ -171,10 +171,11 @@ def read_plan(path: str | Path) -> list[Cell]:
     (lists); `root` (folder of `<env>/<name>/seed<k>`, relative to the plan's own
     folder; default: that folder); `name` (the folder under `<env>/`, default the
     method; needs one method); `config` (Config fields the runs set, e.g.
-    {sicm_input = "raw"}); `queue` (default "grid"); `hold` (a reason: the group is
-    planned but not started); `same_as` (a folder of `seed<k>` runs, relative to the
-    plan's folder, that these cells are: each is copied once it has finished, if its
-    config equals the cell's, see `same_as.check`; needs one env and one method). A
+    {sicm_input = "raw"}; not `threads`, sweep's --threads); `queue` (default
+    "grid"); `hold` (a reason: the group is planned but not started); `same_as` (a
+    folder of `seed<k>` runs, relative to the plan's folder, that these cells are:
+    each is copied once it has finished, if its config equals the cell's, see
+    `same_as.check`; needs one env and one method). A
     `[defaults]` table gives every group its keys (a group's own win; `config` tables
     merge). Cells of different queues alternate, so two queues share the cores; within a
     queue they keep the file's order. Any other top-level key, and any (env, method)
@@ -295,6 +296,13 @@ _TEXT_KEYS = ("root", "name", "queue", "hold", "note", "same_as")
 # Config fields a group's `config` may not set: the cell's own (its envs, methods and
 # seeds say them) and what `resolve` fills
 _NOT_IN_CONFIG = ("env", "method", "seed", "switches", "update_dtype_why", "device_why")
+_SWEEP_SETS = {"threads": "--threads"}
+"""Config fields a group's `config` may not set because `sweep` sets them in every
+cell, and its option: --threads is also the CPUs Ray reserves for a cell, so the plan's
+value could not be honoured. Trap: a plan's `threads = 2` was replaced by sweep's
+--threads (default 1) without a word (`sweep._overrides_plan` compares only the options
+given); threads changes how fast a run goes, not its numbers (`same_as.NEUTRAL_FIELDS`),
+so it is the machine's to say, not the grid's record."""
 
 
 def option_values(path: str | Path, key: str) -> list:
@@ -327,8 +335,14 @@ def _check_group(g: dict) -> str | None:
                 f"config may not set {key!r} (the cell's envs, methods and seeds "
                 "do, or resolve fills it)"
             )
+        if key in _SWEEP_SETS:
+            return (
+                f"config may not set {key!r}: sweep's {_SWEEP_SETS[key]} sets it for "
+                f"every cell (the CPUs Ray reserves for it); allowed: sweep "
+                f"{_SWEEP_SETS[key]} N, and no {key!r} in the plan"
+            )
         if key not in known:
-            allowed = ", ".join(sorted(known - set(_NOT_IN_CONFIG)))
+            allowed = ", ".join(sorted(known - set(_NOT_IN_CONFIG) - set(_SWEEP_SETS)))
             return f"config: unknown field {key!r}; allowed: {allowed}"
     return None
 

@@ -79,6 +79,36 @@ def finished_run(root, *folders: str) -> str | None:
     return None
 
 
+RUN_MARKS = ("progress.csv", "checkpoint.pt", "done.json", "config.json")
+"""The files that make a folder a run's (`run_folder_above`): what table
+(`find_run_dirs`) and pack find runs by; a config.json only if train wrote it."""
+
+
+def run_folder_above(path: str | Path) -> tuple[Path, str] | None:
+    """The nearest folder above `path` that holds a run, and the file that says so (one
+    of `RUN_MARKS`, or a packed checkpoint); None if none does. The folder is named as
+    `path` is, relative if it is. Another tool's config.json (not a JSON object with
+    train's "command" and "config") makes no run. Trap: `train --out RUN/sub` trained
+    a run inside a run, which table, pack and sweep then found as a run of its own
+    under the first."""
+    from .packed import FOLDER, STATE
+
+    path = Path(path)
+    for p in Path(os.path.abspath(path)).parents:
+        for name in (*RUN_MARKS, f"{FOLDER}/{STATE}"):
+            if not os.path.isfile(p / name):
+                continue
+            if name == "config.json":
+                try:
+                    d = read_json(p / name, name)
+                except RunError:
+                    continue
+                if not ("command" in d and "config" in d):
+                    continue
+            return (p if path.is_absolute() else Path(os.path.relpath(p))), name
+    return None
+
+
 def number(s):
     """A progress.csv field as a float; '' stays ''
     (a column a method does not write)."""

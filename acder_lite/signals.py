@@ -20,6 +20,17 @@ def interrupt_on_signals() -> None:
     signal.signal(signal.SIGTERM, handler)
 
 
+def end_on_signals() -> None:
+    """SIGINT and SIGTERM end the process at once (their default action), for a
+    command that has returned and is only exiting (`python -m acder_lite`). Trap: a
+    second Ctrl-C a moment after the first, once train had said where its checkpoint
+    is, raised KeyboardInterrupt inside torch's exit callback (`dump_compile_times`,
+    which imports tabulate): "Exception ignored in atexit callback" and a traceback.
+    Everything is written by then, and a signal that comes while the handlers change
+    asks for the exit already under way: it is dropped."""
+    _put_back({signal.SIGINT: signal.SIG_DFL, signal.SIGTERM: signal.SIG_DFL})
+
+
 @contextlib.contextmanager
 def deferred():
     """SIGINT and SIGTERM held back while the block runs, and delivered once it has
@@ -31,7 +42,15 @@ def deferred():
     end `train` with a traceback and exit 1 instead of the one line and 130 (the old
     checkpoint survived: the write is atomic). Held back, the interrupt arrives a moment
     later, between two files. Only the main thread receives signals in Python; elsewhere
-    this does nothing."""
+    this does nothing.
+
+    A second signal during the block is held back too, and the first one is delivered
+    (`tests/test_signals.py`). Trap: `signal.signal` first runs the handlers of signals
+    that have arrived, then changes its handler; so a Ctrl-C that came once SIGINT's
+    handler was back raised in the call that puts SIGTERM's back, which stayed `hold`
+    (a later `kill` did nothing) for the rest of the process. Every handler is put back
+    now (`_put_back`), whatever a handler raises meanwhile, and the ones to put back
+    are read before any is changed."""
     kinds = (signal.SIGINT, signal.SIGTERM)
     # None: a handler set outside Python, which signal.signal could not put back
     if threading.current_thread() is not threading.main_thread() or any(
@@ -44,11 +63,29 @@ def deferred():
     def hold(signum, frame):
         caught.append(signum)
 
-    old = {s: signal.signal(s, hold) for s in kinds}
+    old = {s: signal.getsignal(s) for s in kinds}  # before any is changed
     try:
+        for s in kinds:  # a signal before the block: its handler raises here
+            signal.signal(s, hold)
         yield
     finally:
-        for s, h in old.items():
-            signal.signal(s, h)
+        late = _put_back(old)
     if caught:
         signal.raise_signal(caught[0])
+    if late is not None:  # a signal after the block, as its handler delivered it
+        raise late
+
+
+def _put_back(old: dict) -> BaseException | None:
+    """Set each signal's handler in `old` back, every one of them, and return what a
+    handler raised meanwhile (None if none did): the handler of a signal that arrived
+    once its own was back, which `signal.signal` runs before it changes the next."""
+    late = None
+    for s, h in old.items():
+        while True:
+            try:
+                signal.signal(s, h)
+                break
+            except BaseException as e:  # a handler's, e.g. our KeyboardInterrupt
+                late = late or e
+    return late

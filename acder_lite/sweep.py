@@ -332,8 +332,11 @@ def _overrides_plan(cell: Cell, passed: dict, given: dict) -> str | None:
 
 
 def check_folders(cells: list[Cell]) -> str | None:
-    """A run folder that cannot be one (it, or a folder above it, is a file),
-    as one line."""
+    """A run folder that cannot be one (it, or a folder above it, is a file; or it is
+    inside another run's folder: `runs.run_folder_above`), as one line."""
+    from .runs import run_folder_above
+
+    looked = set()
     for c in cells:
         for p in [c.out, *c.out.parents]:
             if p.exists():
@@ -343,6 +346,16 @@ def check_folders(cells: list[Cell]) -> str | None:
                         "allowed: a folder (or a path not yet there)"
                     )
                 break
+        if c.out.parent in looked:  # the cells of one <env>/<method> share it
+            continue
+        looked.add(c.out.parent)
+        above = run_folder_above(c.out)
+        if above:
+            return (
+                f"results folder {str(c.out)!r} is inside the run folder "
+                f"{str(above[0])!r} (it holds {above[1]}); allowed: a results folder "
+                "outside every run folder"
+            )
     return None
 
 
@@ -428,7 +441,8 @@ class CellQueue:
 
 def cell_options(cell: Cell, args) -> dict:
     """The Config fields a cell trains with beyond env, method and seed: its plan
-    group's, the sweep's own options (`passed_options`) and --threads."""
+    group's, the sweep's own options (`passed_options`) and --threads (which a plan's
+    config may not set: `plan.read_plan` refuses it)."""
     return {**cell.options, **passed_options(args), "threads": args.threads}
 
 

@@ -422,6 +422,41 @@ def test_ctrl_c_leaves_a_checkpoint_to_resume(tmp_path):
     assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
 
 
+def test_a_second_ctrl_c_while_train_exits_is_no_traceback(tmp_path):
+    """Found by fuzzing: a second Ctrl-C a moment after the first (train had written
+    its checkpoint and said so) raised KeyboardInterrupt in torch's exit callback, an
+    "Exception ignored in atexit callback" traceback. Once main has returned, SIGINT
+    ends the process at once (`signals.end_on_signals`): the one line, no traceback,
+    and the checkpoint whole."""
+    out = tmp_path / "run"
+    args = [*"train --env FetchReach-v4 --epochs 50".split(), *TINY, "--out", str(out)]
+    p = subprocess.Popen(
+        [sys.executable, "-m", "acder_lite", *args],
+        cwd=ROOT,
+        env=dict(os.environ, PYTHONPATH=ROOT),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.time() + 120
+    while not (out / "checkpoint.pt").exists() and time.time() < deadline:
+        time.sleep(0.1)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    first = ""
+    while not first.startswith("interrupted") and p.poll() is None:
+        first = p.stderr.readline() or first  # "" at the end: the loop ends on poll
+    if p.poll() is None:
+        p.send_signal(signal.SIGINT)  # while it exits
+    err = first + p.communicate(timeout=60)[1]
+    assert p.returncode in (130, -signal.SIGINT), err
+    assert "Traceback" not in err and "Exception ignored" not in err, err
+    assert err.startswith("interrupted: the last checkpoint is in"), err
+    from acder_lite.io import load_torch
+
+    assert load_torch(str(out / "checkpoint.pt"))["progress"]["cycle"] >= 2
+
+
 def test_bench_both_dtypes_ends_with_the_bench_line(cli):
     p = cli(
         "bench",
@@ -1084,3 +1119,76 @@ def test_a_dry_run_says_when_its_results_cannot_be_written(capsys):
     assert main([*REACH_GRID, "--results", "/proc/acder-x", "--dry-run"]) == 2
     line = _error_line(capsys)
     assert "results folder '/proc' cannot be written" in line and "allowed:" in line
+
+
+def test_a_run_inside_a_run_is_refused(capsys, tmp_path):
+    """Found by fuzzing: `train --out RUN/sub`, RUN a run folder, trained a run inside
+    a run, which table, pack and sweep then found as a run of its own under the first;
+    a sweep's --results inside a run the same, cell by cell. Refused in one line naming
+    the run folder above and the file that makes it one (`runs.run_folder_above`),
+    before anything is made. Another tool's config.json makes no run."""
+    from acder_lite.cli import main
+    from acder_lite.runs import run_folder_above
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "progress.csv").write_text("epoch,episodes,test_success\n1,4,0\n")
+    argv = ["train", "--env", "FetchReach-v4", *TINY, "--out", str(run / "sub" / "x")]
+    assert main(argv) == 2
+    assert (
+        f"train: --out '{run}/sub/x' is inside the run folder '{run}' (it holds "
+        "progress.csv); allowed: a folder outside every run folder"
+    ) in _error_line(capsys)
+    assert main([*REACH_GRID, "--results", str(run), "--dry-run"]) == 2
+    assert (
+        f"results folder '{run}/FetchReach-v4/her/seed0' is inside the run folder "
+        f"'{run}' (it holds progress.csv); allowed:"
+    ) in _error_line(capsys)
+    assert os.listdir(run) == ["progress.csv"]
+    # the other marks of a run; relative paths are named relative
+    (run / "progress.csv").unlink()
+    for mark in ("checkpoint.pt", "done.json", "checkpoint.packed/state.pt.gz"):
+        (run / mark).parent.mkdir(exist_ok=True)
+        (run / mark).write_bytes(b"")
+        assert run_folder_above(run / "a" / "b") == (run, mark)
+        (run / mark).unlink()
+    (run / "config.json").write_text('{"tool": "not train"}')
+    assert run_folder_above(run / "sub") is None
+    (run / "config.json").write_text(
+        '{"command": "python -m acder_lite", "config": {}}'
+    )
+    assert run_folder_above(run / "sub") == (run, "config.json")
+    cwd = os.getcwd()
+    try:
+        os.chdir(run)
+        assert run_folder_above("sub") == (type(run)("."), "config.json")
+    finally:
+        os.chdir(cwd)
+
+
+def test_a_plan_may_not_set_threads(capsys, tmp_path):
+    """Found by fuzzing: a plan group's `config = { threads = 2 }` was replaced by
+    sweep's --threads (default 1) without a word: `_overrides_plan` compares only the
+    options given, and --threads is always passed. --threads is also the CPUs Ray
+    reserves for each cell, which a plan's value could not change, and threads change
+    how fast a run goes, not its numbers: the plan refuses it, in a group or in
+    [defaults], with or without sweep --threads."""
+    from acder_lite.cli import main
+    from acder_lite.plan import PlanError, read_plan
+
+    plan = _plan(tmp_path, "config = { threads = 2 }\n")
+    with pytest.raises(PlanError, match="group 1: config may not set 'threads'"):
+        read_plan(plan)
+    for more in ([], ["--threads", "2"]):
+        assert main(["sweep", "--plan", plan, *more, "--dry-run"]) == 2
+        assert (
+            "group 1: config may not set 'threads': sweep's --threads sets it for "
+            "every cell (the CPUs Ray reserves for it); allowed: sweep --threads N, "
+            "and no 'threads' in the plan"
+        ) in _error_line(capsys)
+    defaults = tmp_path / "defaults.toml"
+    defaults.write_text("[defaults]\nconfig = { threads = 2 }\n")
+    defaults.write_text(defaults.read_text() + open(_plan(tmp_path, "")).read())
+    assert main(["sweep", "--plan", str(defaults), "--dry-run"]) == 2
+    assert "[defaults]: config may not set 'threads'" in _error_line(capsys)
+    assert sorted(os.listdir(tmp_path)) == ["defaults.toml", "plan.toml"]
