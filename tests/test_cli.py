@@ -359,14 +359,14 @@ def test_ctrl_c_in_the_first_epoch_leaves_a_run_to_start_again(cli, tmp_path):
     assert cli(*cmd).returncode == 0 and (out / "done.json").exists()
 
 
-def _ctrl_c_once_written(args, path, settle=0.0):
+def _interrupt_once_written(args, path, settle=0.0, stdout=subprocess.PIPE):
     """Start `python -m acder_lite ARGS`, send SIGINT once `path` exists (after
-    `settle` seconds more), and return its exit code and stderr."""
+    `settle` seconds more), and return the process (its stderr a pipe)."""
     p = subprocess.Popen(
         [sys.executable, "-m", "acder_lite", *args],
         cwd=ROOT,
         env=dict(os.environ, PYTHONPATH=ROOT),
-        stdout=subprocess.PIPE,
+        stdout=stdout,
         stderr=subprocess.PIPE,
         text=True,
     )
@@ -375,6 +375,12 @@ def _ctrl_c_once_written(args, path, settle=0.0):
         time.sleep(0.1)
     time.sleep(settle)
     p.send_signal(signal.SIGINT)
+    return p
+
+
+def _ctrl_c_once_written(args, path, settle=0.0):
+    """`_interrupt_once_written`, then the exit code and stderr."""
+    p = _interrupt_once_written(args, path, settle)
     _, err = p.communicate(timeout=60)
     return p.returncode, err
 
@@ -430,19 +436,9 @@ def test_a_second_ctrl_c_while_train_exits_is_no_traceback(tmp_path):
     and the checkpoint whole."""
     out = tmp_path / "run"
     args = [*"train --env FetchReach-v4 --epochs 50".split(), *TINY, "--out", str(out)]
-    p = subprocess.Popen(
-        [sys.executable, "-m", "acder_lite", *args],
-        cwd=ROOT,
-        env=dict(os.environ, PYTHONPATH=ROOT),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
+    p = _interrupt_once_written(
+        args, out / "checkpoint.pt", settle=0.5, stdout=subprocess.DEVNULL
     )
-    deadline = time.time() + 120
-    while not (out / "checkpoint.pt").exists() and time.time() < deadline:
-        time.sleep(0.1)
-    time.sleep(0.5)
-    p.send_signal(signal.SIGINT)
     first = ""
     while not first.startswith("interrupted") and p.poll() is None:
         first = p.stderr.readline() or first  # "" at the end: the loop ends on poll
