@@ -254,6 +254,7 @@ def cmd_train(args) -> int:
                 file=sys.stderr,
             )
             ckpt = packed.unpack(args.resume, files=packed_files)
+            del packed_files  # the chunks' arrays: tens of MB for the whole run
         trainer = Trainer(cfg, out, command=_command_line(args.argv))
         try:
             trainer.load_state_dict(ckpt)

@@ -79,23 +79,19 @@ def finished_run(root, *folders: str) -> str | None:
     return None
 
 
-RUN_MARKS = ("progress.csv", "checkpoint.pt", "done.json", "config.json")
-"""The files that make a folder a run's (`run_folder_above`): what table
-(`find_run_dirs`) and pack find runs by; a config.json only if train wrote it."""
-
-
 def run_folder_above(path: str | Path) -> tuple[Path, str] | None:
-    """The nearest folder above `path` that holds a run, and the file that says so (one
-    of `RUN_MARKS`, or a packed checkpoint); None if none does. The folder is named as
-    `path` is, relative if it is. Another tool's config.json (not a JSON object with
-    train's "command" and "config") makes no run. Trap: `train --out RUN/sub` trained
-    a run inside a run, which table, pack and sweep then found as a run of its own
-    under the first."""
+    """The nearest folder above `path` that holds a run, and the file that says so
+    (train's config.json, or a packed checkpoint's state); None if none does. The
+    folder is named as `path` is, relative if it is. Trap: `train --out RUN/sub`
+    trained a run inside a run, which table, pack and sweep then found as a run of its
+    own under the first. Trap the other way: progress.csv, checkpoint.pt and a
+    config.json without train's "command" and "config" are other tools' names too (a
+    stray ~/checkpoint.pt would refuse every run under $HOME), so they make no run."""
     from .packed import FOLDER, STATE
 
     path = Path(path)
     for p in Path(os.path.abspath(path)).parents:
-        for name in (*RUN_MARKS, f"{FOLDER}/{STATE}"):
+        for name in ("config.json", f"{FOLDER}/{STATE}"):
             if not os.path.isfile(p / name):
                 continue
             if name == "config.json":

@@ -80,12 +80,12 @@ def _put_back(old: dict) -> BaseException | None:
     """Set each signal's handler in `old` back, every one of them, and return what a
     handler raised meanwhile (None if none did): the handler of a signal that arrived
     once its own was back, which `signal.signal` runs before it changes the next."""
-    late = None
-    for s, h in old.items():
-        while True:
-            try:
-                signal.signal(s, h)
-                break
-            except BaseException as e:  # a handler's, e.g. our KeyboardInterrupt
-                late = late or e
+    late, todo = None, list(old.items())
+    while todo:
+        try:
+            while todo:  # trap: a handler may raise at any bytecode, the loop's too
+                signal.signal(*todo[0])
+                del todo[0]
+        except BaseException as e:  # a handler's, e.g. our KeyboardInterrupt
+            late = late or e
     return late

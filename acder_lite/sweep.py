@@ -361,15 +361,16 @@ def check_folders(cells: list[Cell]) -> str | None:
 
 def check_writable(cells: list[Cell]) -> str | None:
     """A folder the cells to train or copy cannot be written in, as one line: for each
-    such cell the nearest folder there of its run folder (its run folder, or the one
-    its run folder is to be made in), probed once with a file made and removed
-    (`io.probe_write`). Trap: the dry run said "1 to run" of a results root no file
-    can be made in (/proc/x; os.access says yes to root), and each cell then failed."""
+    such cell the nearest folder there above its run folder (the one it is, or is to
+    be, made in), probed once with a file made and removed (`io.probe_write`). Trap:
+    the dry run said "1 to run" of a results root no file can be made in (/proc/x;
+    os.access says yes to root), and each cell then failed. Not the run folder
+    itself: a resumed cell's may be training at that moment."""
     probed = set()
     for c in cells:
         if c.action == "skip":
             continue
-        folder = next(p for p in [c.out, *c.out.parents] if p.is_dir())
+        folder = next(p for p in c.out.parents if p.is_dir())
         if folder in probed:
             continue
         probed.add(folder)

@@ -1122,44 +1122,44 @@ def test_a_run_inside_a_run_is_refused(capsys, tmp_path):
     a run, which table, pack and sweep then found as a run of its own under the first;
     a sweep's --results inside a run the same, cell by cell. Refused in one line naming
     the run folder above and the file that makes it one (`runs.run_folder_above`),
-    before anything is made. Another tool's config.json makes no run."""
+    before anything is made. Another tool's progress.csv, checkpoint.pt or config.json
+    makes no run (a stray ~/checkpoint.pt must not refuse every run under $HOME)."""
     from acder_lite.cli import main
     from acder_lite.runs import run_folder_above
 
     run = tmp_path / "run"
     run.mkdir()
-    (run / "progress.csv").write_text("epoch,episodes,test_success\n1,4,0\n")
+    (run / "config.json").write_text(
+        '{"command": "python -m acder_lite train", "config": {}}'
+    )
     argv = ["train", "--env", "FetchReach-v4", *TINY, "--out", str(run / "sub" / "x")]
     assert main(argv) == 2
     assert (
         f"train: --out '{run}/sub/x' is inside the run folder '{run}' (it holds "
-        "progress.csv); allowed: a folder outside every run folder"
+        "config.json); allowed: a folder outside every run folder"
     ) in _error_line(capsys)
     assert main([*REACH_GRID, "--results", str(run), "--dry-run"]) == 2
     assert (
         f"results folder '{run}/FetchReach-v4/her/seed0' is inside the run folder "
-        f"'{run}' (it holds progress.csv); allowed:"
+        f"'{run}' (it holds config.json); allowed:"
     ) in _error_line(capsys)
-    assert os.listdir(run) == ["progress.csv"]
-    # the other marks of a run; relative paths are named relative
-    (run / "progress.csv").unlink()
-    for mark in ("checkpoint.pt", "done.json", "checkpoint.packed/state.pt.gz"):
-        (run / mark).parent.mkdir(exist_ok=True)
-        (run / mark).write_bytes(b"")
-        assert run_folder_above(run / "a" / "b") == (run, mark)
-        (run / mark).unlink()
-    (run / "config.json").write_text('{"tool": "not train"}')
-    assert run_folder_above(run / "sub") is None
-    (run / "config.json").write_text(
-        '{"command": "python -m acder_lite", "config": {}}'
-    )
-    assert run_folder_above(run / "sub") == (run, "config.json")
+    assert os.listdir(run) == ["config.json"]
+    # relative paths are named relative
     cwd = os.getcwd()
     try:
         os.chdir(run)
         assert run_folder_above("sub") == (type(run)("."), "config.json")
     finally:
         os.chdir(cwd)
+    # a packed run (its state) is one too; other tools' files are not
+    (run / "config.json").write_text('{"tool": "not train"}')
+    assert run_folder_above(run / "sub") is None
+    for other in ("progress.csv", "checkpoint.pt", "done.json"):
+        (run / other).write_bytes(b"")
+    assert run_folder_above(run / "a" / "b") is None
+    (run / "checkpoint.packed").mkdir()
+    (run / "checkpoint.packed" / "state.pt.gz").write_bytes(b"")
+    assert run_folder_above(run / "a" / "b") == (run, "checkpoint.packed/state.pt.gz")
 
 
 def test_a_plan_may_not_set_threads(capsys, tmp_path):
