@@ -91,13 +91,10 @@ def check_output(
             bad("would overwrite a run's file", "a file outside the run's files")
         if not overwrite:
             bad("already exists", "a file not yet there (nothing is overwritten)")
-    folder = next(f for f in folders_above(path) if os.path.isdir(f))
     try:
-        fd, tmp = tempfile.mkstemp(prefix=".probe.", suffix=".tmp", dir=folder)
+        probe_write(next(f for f in folders_above(path) if os.path.isdir(f)))
     except OSError as e:
         raise write_error(option, path, e) from None
-    os.close(fd)
-    os.unlink(tmp)
 
 
 def probe_write(folder: str) -> None:
