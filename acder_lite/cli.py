@@ -465,16 +465,14 @@ def _out_of_memory(e: BaseException) -> bool:
 def _make_run_folder(out: str) -> None:
     """Create the run folder `out` (and its parents), or raise UsageError in one line:
     a file in the way, no permission, ..."""
-    from .io import folders_above
+    from .io import file_in_the_way
 
-    for p in [out, *folders_above(out)]:
-        if os.path.exists(p):
-            if not os.path.isdir(p):
-                raise UsageError(
-                    f"train: --out {out!r}: {p!r} is a file; "
-                    "allowed: a folder (or a path not yet there)"
-                )
-            break
+    p = file_in_the_way(out)
+    if p:
+        raise UsageError(
+            f"train: --out {out!r}: {p!r} is a file; "
+            "allowed: a folder (or a path not yet there)"
+        )
     try:
         os.makedirs(out, exist_ok=True)
         probe_write(out)

@@ -79,11 +79,9 @@ def check_output(
         # the atomic rename would put a plain file in place of a link, a device
         # (/dev/null) or a FIFO
         bad("is a link, a device or a pipe", "a regular file or a new path")
-    for up in folders_above(path):
-        if os.path.exists(up):
-            if not os.path.isdir(up):
-                bad(f"lies under {up!r}, a file", "a path in a folder")
-            break
+    up = file_in_the_way(path, itself=False)
+    if up:
+        bad(f"lies under {up!r}, a file", "a path in a folder")
     if any(os.path.abspath(path) == os.path.abspath(i) for i in inputs if i):
         bad("is the input file itself")
     if os.path.exists(path):
@@ -113,6 +111,16 @@ def folders_above(path: str) -> list[str]:
         out.append(p)
         p = os.path.dirname(p)
     return out
+
+
+def file_in_the_way(path, itself: bool = True) -> str | None:
+    """The nearest path that exists at `path` (if `itself`) or above it, when it is not
+    a folder (a file where a folder must be, or be made); None when it is one. Train's
+    --out, sweep's run folders, a plan's same_as and every output file ask this."""
+    for p in [str(path)] * itself + folders_above(str(path)):
+        if os.path.exists(p):
+            return None if os.path.isdir(p) else p
+    return None
 
 
 def write_error(option: str, path: str, e: OSError):

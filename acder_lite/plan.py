@@ -13,6 +13,7 @@ from pathlib import Path
 
 from . import packed, same_as
 from .config import ENV_IDS, METHODS, TASK_PRESETS, Config, ConfigError
+from .io import file_in_the_way
 
 
 @dataclass
@@ -355,15 +356,13 @@ def _same_as_problem(g: dict, here: Path, root: Path) -> str | None:
     if "same_as" not in g:
         return None
     source = Path(os.path.normpath(here / g["same_as"]))
-    for p in [source, *source.parents]:
-        if p.exists():
-            if not p.is_dir():
-                return (
-                    f"same_as {g['same_as']!r} is "
-                    + ("a file" if p == source else f"under {str(p)!r}, a file")
-                    + "; allowed: a folder of seed<k> runs"
-                )
-            break
+    p = file_in_the_way(source)
+    if p:
+        return (
+            f"same_as {g['same_as']!r} is "
+            + ("a file" if p == str(source) else f"under {p!r}, a file")
+            + "; allowed: a folder of seed<k> runs"
+        )
     for seed in g["seeds"]:
         run = source / f"seed{seed}"
         if run.exists() and not run.is_dir():

@@ -43,7 +43,7 @@ from pathlib import Path
 
 from . import cluster, grid_time, same_as
 from .config import MAX_THREADS, THREADS_ALLOWED, Config, ConfigError
-from .io import probe_write
+from .io import file_in_the_way, probe_write
 from .precision import usable_cpus
 from .plan import (
     Cell,
@@ -338,14 +338,12 @@ def check_folders(cells: list[Cell]) -> str | None:
 
     looked = set()
     for c in cells:
-        for p in [c.out, *c.out.parents]:
-            if p.exists():
-                if not p.is_dir():
-                    return (
-                        f"results folder {str(p)!r} is a file; "
-                        "allowed: a folder (or a path not yet there)"
-                    )
-                break
+        p = file_in_the_way(c.out)
+        if p:
+            return (
+                f"results folder {p!r} is a file; "
+                "allowed: a folder (or a path not yet there)"
+            )
         if c.out.parent in looked:  # the cells of one <env>/<method> share it
             continue
         looked.add(c.out.parent)

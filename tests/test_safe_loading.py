@@ -595,3 +595,15 @@ def test_a_dict_holding_arrays_keeps_its_type_and_metadata():
     back = aio.tensors_as_arrays(enc)
     assert type(back["s"]) is OrderedDict and back["s"]._metadata == sd._metadata
     assert back["s"]["w"].tobytes() == sd["w"].tobytes() and back["s"]["n"] == 2
+
+
+def test_file_in_the_way_names_the_nearest_path_that_is_not_a_folder(tmp_path):
+    """`io.file_in_the_way`, which train --out, sweep, a plan's same_as and every
+    output file ask: the nearest existing path at (or only above) a path, if a file."""
+    (tmp_path / "f").write_text("x")
+    (tmp_path / "d").mkdir()
+    assert aio.file_in_the_way(tmp_path / "f") == str(tmp_path / "f")
+    assert aio.file_in_the_way(tmp_path / "f", itself=False) is None
+    assert aio.file_in_the_way(tmp_path / "f" / "a" / "b") == str(tmp_path / "f")
+    assert aio.file_in_the_way(tmp_path / "d" / "new" / "x") is None
+    assert aio.file_in_the_way(tmp_path / "d") is None
