@@ -352,6 +352,24 @@ def grid_state(cells: list[CellStat]) -> str:
     return text + "." + _to_come(cells)
 
 
+def grid_caveat(cells: list[CellStat]) -> str:
+    """What `grid_state`'s counts mean for the numbers that follow: final once every
+    planned seed of the grid's cells has ended, else that a cell still to come says so
+    and may change. Trap: a fixed sentence in the chapter went on promising cells "still
+    to come" after the last run had finished."""
+    grid = set(grid_cells())
+    cells = [c for c in cells if (c.env, c.name) in grid]
+    if cells and not _to_come(cells) and all(c.planned for c in cells):
+        return (
+            "Every planned seed of the grid has finished, so no number below waits on "
+            "a run still to come."
+        )
+    return (
+        'A cell still to come says so in Table I ("not run yet", or how many of its '
+        "seeds are still training), and its numbers may change as they finish."
+    )
+
+
 def _to_come(cells: list[CellStat]) -> str:
     """' Still to come: on Pick&Place, DDPG+HER+ICM (2 seeds unfinished), and
     DDPG+HER+PER and ... (not started).' from the cells with seeds not ended or planned

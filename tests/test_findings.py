@@ -65,10 +65,16 @@ def test_grid_state_counts_the_three_tasks_cells_only():
         c.n = c.done = c.planned or c.done
         c.unfinished = 0
     assert "Still to come" not in F.grid_state(cells)
+    assert F.grid_caveat(cells).startswith(
+        "Every planned seed of the grid has finished"
+    )
     cells[2].n, cells[2].done = 1, 1  # 1 of 3 in, 2 not started
     assert "Still to come: on Reach, DDPG+HER+PER (2 not started)." in F.grid_state(
         cells
     )
+    assert F.grid_caveat(cells).startswith("A cell still to come says so in Table I")
+    cells[2].n, cells[2].done, cells[2].unfinished = 3, 2, 1  # all in, one training
+    assert F.grid_caveat(cells).startswith("A cell still to come")
 
 
 def test_order_sentence_writes_ties_as_equal():
