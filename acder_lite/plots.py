@@ -51,6 +51,26 @@ COLORS = {
 }
 """One colour per method or experiment, the same in every figure."""
 
+
+def colors_for(names, colors: dict | None = None) -> dict[str, str]:
+    """A colour for each of `names` in one figure: its own in `colors` (`COLORS`), and
+    for a name without one the first of matplotlib's "C0"-"C9", then of tab20's ten
+    light shades, that no other name of the figure has (the free ones again in turn
+    once all are taken). Trap: left to matplotlib, a new method took the axes' next
+    colour, which could be another method's."""
+    import matplotlib
+    from matplotlib import colors as mcolors
+
+    colors = COLORS if colors is None else colors
+    names = list(dict.fromkeys(names))
+    out = {n: colors[n] for n in names if n in colors}
+    light = [mcolors.to_hex(c) for c in matplotlib.colormaps["tab20"].colors[1::2]]
+    free = [c for c in [f"C{i}" for i in range(10)] + light if c not in out.values()]
+    for i, n in enumerate(n for n in names if n not in out):
+        out[n] = free[i % len(free)] if free else f"C{i % 10}"
+    return out
+
+
 WIDTH = 7.0
 """Width of the package's figures (inches): the book's text column, about 690 CSS px, so
 the page does not shrink them and their text shows at the size it is set in."""
@@ -152,7 +172,7 @@ def plot_mean_curves(
     The legend counts each cell's seeds and, while some have not ended, how many.
     Returns name -> status: "not run yet", or seeds, how far the mean reaches, its
     crossing."""
-    labels, colors = labels or METHOD_LABELS, colors or COLORS
+    labels, colors = labels or METHOD_LABELS, colors_for(names, colors)
     threshold = report.threshold(env) if threshold is None else threshold
     status = {}
     for name in names:
@@ -389,7 +409,7 @@ def plot_seed_column(
 ) -> int:
     """One thin line per seed of a progress.csv column against epochs (e.g. r_int_mean),
     the legend under the axes. Returns how many seeds had the column."""
-    labels = labels or METHOD_LABELS
+    labels, colors = labels or METHOD_LABELS, colors_for(names)
     drawn = 0
     for name in names:
         for i, r in enumerate(
@@ -407,7 +427,7 @@ def plot_seed_column(
                     x,
                     y,
                     lw=0.9,
-                    color=COLORS.get(name),
+                    color=colors[name],
                     label=labels.get(name, name) if i == 0 else None,
                 )
                 drawn += 1

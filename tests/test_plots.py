@@ -8,6 +8,7 @@ import pytest
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib import colors as mcolors  # noqa: E402
 
 from acder_lite import plots  # noqa: E402
 
@@ -19,6 +20,27 @@ def push_run(seed, values, ended, budget=50.0):
     ]
     return dict(env="FetchPush-v4", name="acder", seed=seed, rows=rows, ended=ended,
                 budget_epochs=budget, episodes_per_epoch=400.0)  # fmt: skip
+
+
+def test_a_method_without_a_colour_gets_one_no_other_method_of_the_figure_has():
+    """`plots.colors_for`: known methods keep `COLORS`; a new one takes a free colour,
+    not matplotlib's next, which was another method's."""
+    names = ["her", "acder", "mine", "yours"]
+    c = plots.colors_for(names)
+    assert c["her"] == plots.COLORS["her"] and c["acder"] == plots.COLORS["acder"]
+    assert len(set(c.values())) == 4
+    many = list(plots.COLORS) + [f"new{i}" for i in range(10)]
+    c = plots.colors_for(many)
+    assert all(c[n] == plots.COLORS[n] for n in plots.COLORS)
+    new = [c[f"new{i}"] for i in range(10)]
+    assert len(set(new)) == 10 and not set(new) & set(plots.COLORS.values())
+    fig, ax = plt.subplots()
+    runs = [dict(push_run(0, [0.5, 1.0], "budget"), name=n) for n in ("her", "mine")]
+    plots.plot_mean_curves(ax, runs, "FetchPush-v4", ["her", "mine"])
+    drawn = {mcolors.to_hex(ln.get_color()) for ln in ax.get_lines()[:4]}
+    assert mcolors.to_hex(plots.COLORS["her"]) in drawn
+    assert mcolors.to_hex(plots.colors_for(["her", "mine"])["mine"]) in drawn
+    plt.close(fig)
 
 
 def test_diagnostics_one_panel_each_r_int_on_a_log_axis_with_eta():
