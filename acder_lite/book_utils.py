@@ -44,19 +44,22 @@ def budgets(fast: bool, trains: bool = True, **pairs) -> dict:
     return chosen
 
 
-def glue(name: str, value, display: bool = False):
+def glue(name: str, value, display: bool = False, other_pages: bool = False):
     """`myst_nb.glue` for values quoted in prose, with display off.
 
     Numpy scalars become Python numbers first (numpy 2's repr, `np.float64(0.5)`, cannot
     be formatted by `{glue:text}` with a format spec). Strings become Markdown, to be
-    pasted with `{glue:md}` (`{glue:text}` would show their quotes)."""
+    pasted with `{glue:md}` (`{glue:text}` would show their quotes), unless
+    `other_pages`: then a string stays plain text, for another page to paste with
+    `{glue:text}`notebooks/NAME::key`` (myst-nb pastes only text/plain across pages,
+    stripping the quotes; plain text, so no Markdown in it)."""
     import numpy as np
     from IPython.display import Markdown
     from myst_nb import glue as _glue
 
     if isinstance(value, np.generic):
         value = value.item()
-    if isinstance(value, str):
+    if isinstance(value, str) and not other_pages:
         value = Markdown(value)
     return _glue(name, value, display=display)
 

@@ -59,7 +59,9 @@ def test_glue_hands_myst_nb_python_numbers_and_markdown(monkeypatch):
     glue("x", np.float64(0.5))
     glue("n", np.int64(3), display=True)
     glue("s", "**b**")
-    (x, kx), (n, kn), (s, _) = got
+    glue("t", "on Push 1.9", other_pages=True)
+    (x, kx), (n, kn), (s, _), (t, _) = got
+    assert t == ("t", "on Push 1.9")  # text/plain: another page's {glue:text} pastes it
     assert x == ("x", 0.5) and type(x[1]) is float and kx == {"display": False}
     assert n == ("n", 3) and type(n[1]) is int and kn == {"display": True}
     assert isinstance(s[1], Markdown) and s[1].data == "**b**"

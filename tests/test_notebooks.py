@@ -73,6 +73,28 @@ def test_every_glued_reference_is_glued(path):
     assert not missing, f"referenced but never glued: {missing}"
 
 
+PAGE_GLUE_REF = re.compile(r"\{glue(?::(\w+))?\}`([\w/.-]+)::([\w-]+)")
+
+
+def test_every_glued_reference_across_pages_is_glued_as_plain_text():
+    """A book page quoting a chapter's glued value (`{glue:text}`notebooks/NB::key``,
+    the introduction's verdict) names a chapter that glues that key with
+    `other_pages=True`: myst-nb pastes only text/plain across pages, so a Markdown
+    glue there is dropped with a warning, which fails `make book`."""
+    pages = glob.glob(os.path.join(ROOT, "book", "*.md"))
+    refs = [m for p in pages for m in PAGE_GLUE_REF.findall(open(p).read())]
+    assert refs, "the introduction quotes chapter 8's verdict"
+    for role, doc, key in refs:
+        assert role == "text", f"{doc}::{key}: only {{glue:text}} pastes across pages"
+        cells = json.load(open(os.path.join(ROOT, doc + ".ipynb")))["cells"]
+        code = "\n".join(
+            "".join(c["source"]) for c in cells if c["cell_type"] == "code"
+        )
+        assert re.search(rf'glue\("{key}", .*other_pages=True\)', code), (
+            f"{doc} does not glue {key!r} with other_pages=True"
+        )
+
+
 @pytest.mark.parametrize("path", CHAPTERS, ids=os.path.basename)
 def test_every_saved_scene_is_shown(path):
     """`viz.show_scene(name)` returns the scene's iframe; only a cell's last top-level
