@@ -77,7 +77,8 @@ def verdict(
     (then ACDER's advantage is larger here). On a task whose threshold is 100%, no
     resample crosses later than the cell's own mean curve, so the ratio's interval is
     capped (`_capped_sentence`); `coverage` (seeds -> `report.bootstrap_coverage`) says
-    how often such an interval covers with that many seeds."""
+    how often such an interval covers with that many seeds. Plain text, and no "above"
+    or "below": the book's introduction quotes it away from chapter 8."""
     by = {(c.env, c.name): c for c in cells or []}
     text, partial = _verdict(rs, by, coverage or {}), _still_training(rs, cells or [])
     if not partial:
@@ -192,7 +193,8 @@ def _capped_sentence(r: RatioStat, by: dict, coverage: dict[int, float]) -> str:
         said = " and ".join(f"{coverage[n]:.0%}" for n in ns)
         text += (
             f"; with {' and '.join(map(str, ns))} seeds such an interval covers "
-            f"about {said} of the time (above), not 95%"
+            f"about {said} of the time (measured on synthetic seeds by "
+            "report.bootstrap_coverage), not 95%"
         )
     return text + "."
 

@@ -266,7 +266,7 @@ def test_verdict_at_a_100_percent_threshold_says_the_interval_is_capped():
         "DDPG+ACDER's fastest seed), below the paper's 5.6. The per-seed ratios (2.0 "
         "of the medians, 2.0 of the means) carry the verdict there as much as the "
         "interval; with 2 seeds such an interval covers about 50% of the time "
-        "(above), not 95%." in v
+        "(measured on synthetic seeds by report.bootstrap_coverage), not 95%." in v
     )
     assert float(np.nanmax(RE.ratio_boot(cells[0].boot, cells[1].boot))) <= 2.0
     push = [curve_cell("her", [0.0, 0.5, 1.0, 1.0]), curve_cell("acder", [1.0] * 4)]

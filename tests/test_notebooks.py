@@ -73,25 +73,33 @@ def test_every_glued_reference_is_glued(path):
     assert not missing, f"referenced but never glued: {missing}"
 
 
-PAGE_GLUE_REF = re.compile(r"\{glue(?::(\w+))?\}`([\w/.-]+)::([\w-]+)")
+PAGE_GLUE_REF = re.compile(r"\{glue(?::(\w+))?\}`([\w/.-]+)::([\w-]+)(:\w*)?`")
 
 
 def test_every_glued_reference_across_pages_is_glued_as_plain_text():
-    """A book page quoting a chapter's glued value (`{glue:text}`notebooks/NB::key``,
-    the introduction's verdict) names a chapter that glues that key with
-    `other_pages=True`: myst-nb pastes only text/plain across pages, so a Markdown
-    glue there is dropped with a warning, which fails `make book`."""
+    """A book page quoting a chapter's glued value
+    (`{glue:text}`../notebooks/NB.ipynb::key:s``, the introduction's verdict) names,
+    relative to itself and with its suffix (Sphinx resolves it so), a chapter that
+    glues that key with `other_pages=True`, and ends in a format spec: myst-nb pastes
+    only text/plain across pages, and splits the role's text at its last ":", so
+    without the spec it takes "...::" for the key. Either way `make book` fails."""
     pages = glob.glob(os.path.join(ROOT, "book", "*.md"))
-    refs = [m for p in pages for m in PAGE_GLUE_REF.findall(open(p).read())]
+    refs = [(p, *m) for p in pages for m in PAGE_GLUE_REF.findall(open(p).read())]
     assert refs, "the introduction quotes chapter 8's verdict"
-    for role, doc, key in refs:
-        assert role == "text", f"{doc}::{key}: only {{glue:text}} pastes across pages"
-        cells = json.load(open(os.path.join(ROOT, doc + ".ipynb")))["cells"]
+    for page, role, doc, key, spec in refs:
+        where = f"{os.path.basename(page)}: {doc}::{key}"
+        assert role == "text", f"{where}: only {{glue:text}} pastes across pages"
+        assert spec, f"{where}: add a format spec (':s')"
+        path = os.path.normpath(os.path.join(os.path.dirname(page), doc))
+        assert path.endswith(".ipynb") and os.path.isfile(path), (
+            f"{where}: no such file"
+        )
+        cells = json.load(open(path))["cells"]
         code = "\n".join(
             "".join(c["source"]) for c in cells if c["cell_type"] == "code"
         )
         assert re.search(rf'glue\("{key}", .*other_pages=True\)', code), (
-            f"{doc} does not glue {key!r} with other_pages=True"
+            f"{where}: the chapter does not glue it with other_pages=True"
         )
 
 
