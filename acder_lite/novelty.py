@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from .book_utils import percent
 from .config import ConfigError
 from .curiosity import SICM
 
@@ -140,12 +141,13 @@ def clip_shares(
 
 def clip_table(sat: dict[tuple[str, str, float], float]):
     """`clip_shares` as a table for `table.to_html`: (header, rows), a row per input,
-    a column per eta and set (familiar, then new), shares to two decimals."""
+    a column per eta and set (familiar, then new), shares as percentages to two
+    significant digits, as `novelty_contrast` words them."""
     inputs = list(dict.fromkeys(inp for inp, _, _ in sat))
     etas = list(dict.fromkeys(x for _, _, x in sat))
     cols = [(x, k) for x in etas for k in ("familiar", "new")]
     head = ["share at the clip"] + [f"{k}, eta = {x}" for x, k in cols]
-    rows = [[inp] + [f"{sat[inp, k[:3], x]:.2f}" for x, k in cols] for inp in inputs]
+    rows = [[inp] + [percent(sat[inp, k[:3], x], 2) for x, k in cols] for inp in inputs]
     return head, rows
 
 
@@ -242,12 +244,12 @@ def _clip_tail(at_clip: dict[str, tuple[float, float]]) -> str:
             )
             parts.append(
                 f"{a} transitions reach it more often than {b} ones on {i} inputs "
-                f"({x:.2g} against {y:.2g})"
+                f"({percent(x, 2)} against {percent(y, 2)})"
             )
         else:
             parts.append(
                 f"familiar and new transitions reach it equally often on {i} inputs "
-                f"({f:.2g})"
+                f"({percent(f, 2)})"
             )
     parts[0] = parts[0].replace("reach it", "reach the clip", 1)
     return ", while ".join(parts)

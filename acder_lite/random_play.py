@@ -86,3 +86,15 @@ def success_rank(push: float, reach: float) -> str:
     if push > reach:
         return "The success rates even rank Push above Reach"
     return "The success rates rank Reach above Push"
+
+
+def luck_quantifier(success: int, earned: int) -> str:
+    """How many of the object tasks' random successes were luck at the reset (solved at
+    step 0), as chapter 1 words it, from the counts of successes and of those `earned`
+    (not solved at step 0): 'all' (none earned), 'most' (under half earned), 'some'.
+    Trap: a fixed "mostly" went on saying so where every success was luck."""
+    if not 0 <= earned <= success:
+        raise ValueError(f"earned {earned} is not in [0, success={success}]")
+    if earned == 0:
+        return "all"
+    return "most" if 2 * earned < success else "some"

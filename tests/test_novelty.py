@@ -69,7 +69,7 @@ def test_novelty_contrast_says_what_the_numbers_show():
     assert "1.4 times the familiar one on normalised inputs" in c["new"]
     assert c["tail"] == (
         "familiar transitions reach the clip more often than new ones on normalised "
-        "inputs (0.035 against 0.01), while neither familiar nor new transitions "
+        "inputs (3.5% against 1%), while neither familiar nor new transitions "
         "reach it on raw inputs"
     )
     assert c["summary"].startswith("on both inputs the scripted excursions are")
@@ -81,7 +81,7 @@ def test_novelty_contrast_says_what_the_numbers_show():
     assert c["new"].startswith("Fresh exploration does not come closer")
     assert c["tail"].endswith(
         "new transitions reach it more often than familiar "
-        "ones on raw inputs (0.2 against 0.1)"
+        "ones on raw inputs (20% against 10%)"
     )
     med["normalised"][3] = 0.05
     assert N.novelty_contrast(med, at, 0.8)["summary"].startswith(
@@ -182,8 +182,8 @@ def test_clip_shares_table_and_readings_of_the_paper_etas():
         "new, eta = 0.8",
     ]
     assert rows == [
-        ["normalised", "0.75", "0.75", "0.25", "0.75"],
-        ["raw", "0.00", "0.25", "0.00", "0.00"],
+        ["normalised", "75%", "75%", "25%", "75%"],
+        ["raw", "0%", "25%", "0%", "0%"],
     ]
     readings, keeps = N.clip_readings(sat)
     assert list(readings) == [0.05, 0.8]

@@ -79,3 +79,14 @@ def test_random_policy_draws_each_entry_uniform_in_minus_one_to_one():
         u, np.random.default_rng(7).uniform(-1.0, 1.0, (200, 4))
     )
     assert u.min() < -0.9 and u.max() > 0.9  # 800 draws reach both ends of the box
+
+
+def test_luck_quantifier_says_all_when_no_object_success_was_earned():
+    from acder_lite.random_play import luck_quantifier
+
+    assert luck_quantifier(25, 0) == "all"
+    assert luck_quantifier(25, 12) == "most"  # 13 of 25 were luck
+    assert luck_quantifier(24, 12) == "some"
+    assert luck_quantifier(0, 0) == "all"
+    with pytest.raises(ValueError, match="earned 3"):
+        luck_quantifier(2, 3)
