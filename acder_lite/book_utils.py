@@ -51,8 +51,9 @@ def glue(name: str, value, display: bool = False, other_pages: bool = False):
     be formatted by `{glue:text}` with a format spec). Strings become Markdown, to be
     pasted with `{glue:md}` (`{glue:text}` would show their quotes), unless
     `other_pages`: then a string stays plain text, for another page to paste with
-    `{glue:text}`notebooks/NAME::key`` (myst-nb pastes only text/plain across pages,
-    stripping the quotes; plain text, so no Markdown in it)."""
+    `{glue:text}`../notebooks/NAME.ipynb::key:s`` (the chapter's path from that page,
+    with its suffix; the format spec, since the role splits at its last ":"). myst-nb
+    pastes only text/plain across pages, stripping the quotes: no Markdown in it."""
     import numpy as np
     from IPython.display import Markdown
     from myst_nb import glue as _glue
