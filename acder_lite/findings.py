@@ -321,12 +321,17 @@ def copies_sentence(runs: list[dict], root: str | Path | None = None) -> str:
     )
 
 
+def _in_grid(cells: list[CellStat]) -> list[CellStat]:
+    """The cells of Table I and Fig. 5 (`report.grid_cells`), in their order."""
+    grid = set(grid_cells())
+    return [c for c in cells if (c.env, c.name) in grid]
+
+
 def grid_state(cells: list[CellStat]) -> str:
     """How far the grid is: cells with a finished seed, seeds finished of those planned
     (cells outside the grid, such as protocol v1's acder-baselines-clip, are not
     counted)."""
-    grid = set(grid_cells())
-    cells = [c for c in cells if (c.env, c.name) in grid]
+    cells = _in_grid(cells)
     started = sum(c.done > 0 for c in cells)
     done, unfinished = sum(c.done for c in cells), sum(c.unfinished for c in cells)
     planned = sum(c.planned or 0 for c in cells)
@@ -359,8 +364,7 @@ def grid_caveat(cells: list[CellStat]) -> str:
     planned seed of the grid's cells has ended, else that a cell still to come says so
     and may change. Trap: a fixed sentence in the chapter went on promising cells "still
     to come" after the last run had finished."""
-    grid = set(grid_cells())
-    cells = [c for c in cells if (c.env, c.name) in grid]
+    cells = _in_grid(cells)
     if cells and not _to_come(cells) and all(c.planned for c in cells):
         return (
             "Every planned seed of the grid has finished, so no number below waits on "
