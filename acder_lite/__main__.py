@@ -1,7 +1,7 @@
 import sys
 
-from .cli import main
-from .signals import end_on_signals
+from acder_lite.cli.main import main
+from acder_lite.signals import end_on_signals
 
 try:
     code = main()

@@ -1,16 +1,20 @@
 """All settings of a run in one dataclass, the method table, and per-task presets.
 
-A method is a set of switches on the one trainer (the README's "Layout"): `METHODS`
-maps each `--method` name to those switches. Every decision the paper leaves open is a
-field here, with the default book/departures.md gives and argues.
+A method is a set of switches on the one trainer (book/using.md, "Extending it"):
+`METHODS` maps each `--method` name to those switches. Every decision the paper leaves
+open is a field here, with the default book/departures.md gives and argues.
 """
 
 from __future__ import annotations
+
+import copy
 
 import dataclasses
 import math
 import numbers
 from dataclasses import dataclass, field, fields
+
+from acder_lite.legacy import LEGACY_METHODS, upgrade_legacy  # noqa: F401
 
 ENV_IDS = (
     "FetchReach-v4",
@@ -21,7 +25,7 @@ ENV_IDS = (
 )
 """The goal-based Fetch tasks this package trains on (gymnasium-robotics 1.4.2, `-v4`
 ids), and the paper's multi-step task in our reading, two blocks with a target each
-(`acder_lite.multistep`)."""
+(`acder_lite.envs.multistep`)."""
 
 OBJECT_ENVS = (
     "FetchPush-v4",
@@ -191,7 +195,7 @@ BUFFER_SCOPES = ("worker", "shared")
 SICM_INPUTS = ("normalised", "raw")
 SICM_ANGLES = ("euler", "sincos")
 OBS_SETS = ("full", "simplified")
-"""Allowed `Config.obs` values (`acder_lite.observations`)."""
+"""Allowed `Config.obs` values (`acder_lite.envs.observations`)."""
 MAX_WORKERS = 500
 """The most envs a run steps together: `envs.run_env_seeds` gives test env i the seed
 `seed*1000+500+i`, so training env 500 would reset to test env 0's goals."""
@@ -204,21 +208,6 @@ THREADS_ALLOWED = (
     f"an integer in [1, {MAX_THREADS}] (more threads than any machine this runs on has)"
 )
 """What a threads option allows, in its one-line error."""
-
-# Protocol v1 (experiments/protocol-v1/): what a config.json written before a field
-# existed meant. `Config.from_dict` fills these in, so an old run's recorded config
-# still reproduces it.
-LEGACY_VALUES = dict(
-    init="torch",
-    buffer_scope="shared",
-    sicm_input="normalised",
-    update_dtype="float32",
-    split_update="off",
-)
-LEGACY_METHODS = {"acder-baselines-clip": ("acder", "baselines")}
-"""Methods of protocol v1 that are now a method plus a setting:
-name -> (method, target_clip)."""
-
 
 SPLIT_UPDATES = ("auto", "on", "off")
 """Allowed `Config.split_update` values."""
@@ -248,8 +237,8 @@ class Config:
     """What the policy (and S-ICM) sees of the observation: 'full' (the Fetch vector:
     positions, rotations, velocities) or 'simplified' (paper, section V-E, for the UR5:
     gripper position, object positions, object-minus-gripper positions, finger states;
-    no velocities or rotations: `acder_lite.observations`). A config.json without the
-    field is 'full', as every earlier run."""
+    no velocities or rotations: `acder_lite.envs.observations`). A config.json
+    without the field is 'full', as every earlier run."""
 
     # --- the paper protocol
     # (Baselines' DDPG+HER, 4 MPI workers emulated in one process)
@@ -431,9 +420,9 @@ class Config:
     equals the threads=1 run bit for bit (tests/test_rollout.py)."""
     compile_update: bool = False
     """Compile the critic's and the actor's loss, forward and backward, with
-    torch.compile (inductor; `acder_lite.compiled`): the matmuls stay MKL's, the ops
-    between them are fused. It moves floats: the fused ops round in another order, so a
-    run's weights equal the eager ones within float32 tolerance only
+    torch.compile (inductor; `acder_lite.algo.compiled`): the matmuls stay MKL's, the
+    ops between them are fused. It moves floats: the fused ops round in another order,
+    so a run's weights equal the eager ones within float32 tolerance only
     (tests/test_compiled.py), not bit for bit. Off by default, and off for the
     reproduction grid, whose runs resume across code changes and must compute as they
     started (experiments/bit-identity/). The first update compiles (about 25 s of wall
@@ -478,28 +467,30 @@ class Config:
     """Filled from `METHODS[method]` by `resolve()`; recorded in config.json."""
 
     def resolve(self) -> "Config":
-        """Validate, then fill the task presets (`PRESET_FIELDS`), the method's
-        switches, and the `auto` device and update dtype. Returns self."""
+        """A validated copy with the task presets (`PRESET_FIELDS`), the method's
+        switches, and the `auto` device and update dtype filled in; `self` is left as
+        it was (the trap it avoids: a caller's Config changing under it)."""
         self.validate()
-        preset = TASK_PRESETS[self.env]
+        c = copy.copy(self)
+        preset = TASK_PRESETS[c.env]
         for name in PRESET_FIELDS:
-            if getattr(self, name) is None:
-                setattr(self, name, preset[name])
-        self.switches = dict(METHODS[self.method])
-        from .precision import choose_device, choose_update_dtype
+            if getattr(c, name) is None:
+                setattr(c, name, preset[name])
+        c.switches = dict(METHODS[c.method])
+        from acder_lite.precision import choose_device, choose_update_dtype
 
         try:  # also checks that a recorded 'cuda' (a resumed run) is still there
-            device, why = choose_device(self.device)
+            device, why = choose_device(c.device)
         except ValueError as e:
             raise ConfigError(str(e)) from None
-        if self.device == "auto" or not self.device_why:
-            self.device, self.device_why = device, why
-        if self.update_dtype == "auto" or not self.update_dtype_why:
-            self.update_dtype, self.update_dtype_why = choose_update_dtype(
-                self.update_dtype, self.device
+        if c.device == "auto" or not c.device_why:
+            c.device, c.device_why = device, why
+        if c.update_dtype == "auto" or not c.update_dtype_why:
+            c.update_dtype, c.update_dtype_why = choose_update_dtype(
+                c.update_dtype, c.device
             )
-        self.validate()
-        return self
+        c.validate()
+        return c
 
     @property
     def split(self) -> bool:
@@ -730,25 +721,6 @@ _NUMBER_TYPES = {
 """A number field's annotation -> (the types its value may have, numpy's included;
 what to call them in `Config.validate`'s one line). A bool is no number here: True
 is no seed."""
-
-
-def upgrade_legacy(d: dict) -> dict:
-    """A protocol-v1 config dict in today's fields, meaning the same run (a copy)."""
-    d = dict(d)
-    if "target_clip" not in d:
-        d["target_clip"] = (d.get("switches") or {}).get("target_clip", "wide")
-    if d.get("method") in LEGACY_METHODS:
-        d["method"], d["target_clip"] = LEGACY_METHODS[d["method"]]
-    for name, value in LEGACY_VALUES.items():
-        d.setdefault(name, value)
-    if "stop_after_success" in d:  # v1: 0 meant "never stop early"
-        thr = d.pop("stop_after_success")
-        d.setdefault("success_threshold", thr if thr > 0 else None)
-        if not thr > 0:
-            d["stop_patience"] = 0
-    if isinstance(d.get("switches"), dict):
-        d["switches"] = {k: v for k, v in d["switches"].items() if k != "target_clip"}
-    return d
 
 
 def fast_mode() -> bool:

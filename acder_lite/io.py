@@ -18,7 +18,7 @@ import zipfile
 import numpy as np
 import torch
 
-from .signals import deferred
+from acder_lite.signals import deferred
 
 
 def atomic_write(path: str, write) -> None:
@@ -66,7 +66,7 @@ def check_output(
     above it that exists, made and removed at once (`write_error` if not). Trap:
     os.access says yes to root in a folder such as /proc, where no file can be made.
     The output itself is still written atomically, after the work."""
-    from .config import ConfigError
+    from acder_lite.config import ConfigError
 
     def bad(what, allowed="another file"):
         raise ConfigError(f"{option}={path!r} {what}; allowed: {allowed}")
@@ -126,7 +126,7 @@ def file_in_the_way(path, itself: bool = True) -> str | None:
 def write_error(option: str, path: str, e: OSError):
     """The one-line error of an output that could not be written
     (to raise from the OSError `e`)."""
-    from .config import ConfigError
+    from acder_lite.config import ConfigError
 
     return ConfigError(
         f"{option}={path!r} cannot be written ({e.strerror or type(e).__name__}); "
@@ -336,7 +336,7 @@ def load_torch(path: str) -> dict:
             f"checkpoint {path!r} is truncated or not a checkpoint (not the zip "
             f"archive torch.save writes); {ALLOWED}"
         )
-    if _is_torchscript(path):
+    if is_torchscript(path):
         raise CheckpointError(
             f"checkpoint {path!r} is a TorchScript file written by export; {ALLOWED}"
         )
@@ -381,7 +381,7 @@ def load_torch(path: str) -> dict:
     return obj
 
 
-def _is_torchscript(path: str) -> bool:
+def is_torchscript(path: str) -> bool:
     """Whether the zip at `path` is a TorchScript archive (torch.jit.save, as `export`
     writes it): its records, under one top folder, hold constants.pkl and a code/
     folder, which torch.save never writes (torch.load tells the two apart the same
@@ -454,7 +454,7 @@ def check_policy(d, path: str | None = None) -> None:
     for k in ("env", "method"):
         if not isinstance(d[k], str):
             bad(f"{k} is a {type(d[k]).__name__}, not a string")
-    from .config import OBS_SETS
+    from acder_lite.config import OBS_SETS
 
     if d.get("obs", "full") not in OBS_SETS:
         bad(f"obs is {d['obs']!r}, not one of {', '.join(OBS_SETS)}")
@@ -528,7 +528,7 @@ def checkpoint_config(ckpt: dict, path: str):
     (CheckpointError, one line naming `path`). Trap: both divide by its cycles and count
     its progress before anything validates them; cycles=0 or a cycle 'x' was a
     traceback there."""
-    from .config import Config, ConfigError
+    from acder_lite.config import Config, ConfigError
 
     def bad(what):
         raise CheckpointError(
@@ -571,3 +571,28 @@ def check_policy_fits(d: dict, path: str, obs: int, goal: int, act: int) -> None
             f"{n['o']}/{n['g']}/{s['act_dim']}, {d['env']} has {obs}/{goal}/{act} "
             f"({ALLOWED})"
         )
+
+
+def load_policy(path: str) -> tuple[dict, str]:
+    """The policy dict of a run folder (its policy.pt, else checkpoint.pt) or of a .pt
+    file, read without running anything from it (`io.load_torch`), and that file."""
+    if os.path.isdir(path):
+        for name in ("policy.pt", "checkpoint.pt"):
+            if os.path.isfile(os.path.join(path, name)):
+                path = os.path.join(path, name)
+                break
+        else:
+            raise CheckpointError(
+                f"run folder {path!r} holds neither policy.pt nor "
+                "checkpoint.pt; allowed: a run folder written by "
+                "train, or its policy.pt"
+            )
+    from acder_lite.config import ENV_IDS
+
+    pol = load_torch(path)["policy"]
+    if pol["env"] not in ENV_IDS:
+        raise CheckpointError(
+            f"checkpoint {path!r} names env {pol['env']!r}; allowed: "
+            f"one of {', '.join(ENV_IDS)}"
+        )
+    return pol, path

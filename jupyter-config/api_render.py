@@ -26,6 +26,21 @@ NONE_ASSIGNED = re.compile(r"^\s*[\w.]+\s*(:[^=]+)?=\s*None\s*(#.*)?$")
 
 
 class ApiRenderer(MystRenderer):
+    def render_package(self, item):
+        """A subpackage's page (acder_lite.algo) lists its modules as links, not as a
+        `{toctree}`: the book's table of contents (_toc.yml's glob) already places
+        every module's page, and a second toctree would be a warning per folder."""
+        lines = iter(super().render_package(item))
+        for line in lines:
+            if line != "```{toctree}":
+                yield line
+                continue
+            for entry in lines:
+                if entry == "```":
+                    break
+                if entry and not entry.startswith(":"):
+                    yield f"- {{py:mod}}`{entry}`"
+
     def render_data(self, item):
         value = item.get("value")
         lines = super().render_data(item)

@@ -71,7 +71,7 @@ def curve_cell(name: str, values, env="FetchPush-v4", ended="budget", seeds=2):
     (400 episodes an epoch, a budget of len(values) epochs), through report.cell_stat:
     for Table I's text cells (table) and the book's sentences (findings,
     ablation_findings, experiment_findings)."""
-    from acder_lite.report import cell_stat
+    from acder_lite.stats.report import cell_stat
 
     rows = [
         dict(epoch=float(i), episodes=400.0 * i, test_success=v)
@@ -104,7 +104,7 @@ def push_cell(name: str, crossing, low, high):
     """A FetchPush CellStat with only a mean-curve crossing and its interval (epochs),
     for the readings' rule (report.choose) and its sentence
     (experiment_findings.choice_sentence)."""
-    from acder_lite.report import CellStat
+    from acder_lite.stats.report import CellStat
 
     return CellStat(
         env="FetchPush-v4", name=name, method="acder", threshold=0.95,
@@ -213,3 +213,16 @@ def listening(pid: int) -> list[tuple[str, int]]:
                 ip = ".".join(str(b) for b in raw[::-1])
             out.append((ip, int(hexport, 16)))
     return out
+
+
+def rewards_of(tr, batch: dict, tb: dict | None = None):
+    """The critic's rewards for `batch` as `Trainer.update_step` computes them, with the
+    same side effects in the same order (the curiosity model's step, the logged mean
+    lambda, the start-state offer), as a numpy array."""
+    tb = tr.batch_tensors(batch) if tb is None else tb
+    r_int = tr.curiosity_step(batch, tb)
+    r, lam = tr.shaped_rewards(batch, r_int)
+    if lam is not None:
+        tr.diag["lam"] += float(lam.mean())
+    tr.offer_start_states(batch, r_int)
+    return r

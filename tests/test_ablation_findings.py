@@ -1,7 +1,10 @@
-"""The sentences the book says about Fig. 5's ablations (acder_lite.ablation_findings),
+"""The sentences the book says about Fig. 5's ablations
+(acder_lite.book.ablation_findings),
 on synthetic cells: two equal seeds a cell make each 95% interval its crossing."""
 
-from acder_lite import ablation_findings as AF, report as RE, table as T
+from acder_lite.book import ablation_findings as AF
+from acder_lite.stats import report as RE
+from acder_lite.runs import table as T
 
 from conftest import curve_cell, her_acder_cells
 

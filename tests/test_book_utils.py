@@ -1,7 +1,7 @@
-"""The book's helpers for every chapter (acder_lite.book_utils): the budgets, how
+"""The book's helpers for every chapter (acder_lite.book.utils): the budgets, how
 shares and vectors are written."""
 
-from acder_lite.book_utils import budgets, vector_text
+from acder_lite.book.utils import budgets, vector_text
 
 
 def test_budgets_of_a_chapter_that_trains_nothing_print_no_precision(capsys):
@@ -10,7 +10,7 @@ def test_budgets_of_a_chapter_that_trains_nothing_print_no_precision(capsys):
 
 
 def test_percent_drops_trailing_zeros():
-    from acder_lite.book_utils import percent
+    from acder_lite.book.utils import percent
 
     assert [percent(x) for x in (0.1, 0.025, 0.003, 1.0, 0.12345)] == [
         "10%",
@@ -22,7 +22,7 @@ def test_percent_drops_trailing_zeros():
 
 
 def test_percent_range_gives_both_ends_the_same_decimals():
-    from acder_lite.book_utils import percent_range
+    from acder_lite.book.utils import percent_range
 
     assert percent_range(0.0043, 0.01) == "0.43% to 1.00%"
     assert percent_range(0.12, 0.3449) == "12% to 34%"
@@ -38,7 +38,7 @@ def test_vector_text_prints_no_negative_zero():
 def test_percent_range_up_to_a_whole_share_has_no_decimals():
     """0 to 1: the nonzero end, 100%, needs no decimal for 2 significant digits (its
     places, 2 - 1 - 2 = -1, are held at 0), so both ends are whole percents."""
-    from acder_lite.book_utils import percent_range
+    from acder_lite.book.utils import percent_range
 
     assert percent_range(0.0, 1.0) == "0% to 100%"
     assert percent_range(1.0, 1.0) == "100% to 100%"
@@ -52,7 +52,7 @@ def test_glue_hands_myst_nb_python_numbers_and_markdown(monkeypatch):
     import numpy as np
     from IPython.display import Markdown
 
-    from acder_lite.book_utils import glue
+    from acder_lite.book.utils import glue
 
     got = []
     monkeypatch.setattr(myst_nb, "glue", lambda *a, **k: got.append((a, k)))

@@ -57,7 +57,9 @@ OUTPUTS_PAGE = "notebooks/markdown_outputs"
 # the API reference; autodoc2 writes its module pages when the book is built
 API_PAGE = "book/api"
 API_GLOB = "book/apidocs/acder_lite/acder_lite.*"  # as _toc.yml takes them in
-API_MODULE_PAGE = "book/apidocs/acder_lite/acder_lite.rewards"  # one of them: Eq. 4-6
+API_MODULE_PAGE = (
+    "book/apidocs/acder_lite/acder_lite.algo.rewards"  # one of them: Eq. 4-6
+)
 BUILD_TIMEOUT = 600
 RUN_TIMEOUT = 300
 

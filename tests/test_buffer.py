@@ -1,10 +1,11 @@
-"""The replay buffer's FIFO eviction (Baselines' ring buffer, DESIGN.md: a replay
-buffer of 10^6 transitions per worker): once full, a new episode overwrites the
+"""The replay buffer's FIFO eviction (Baselines' ring buffer, book/departures.md,
+departure 25: a replay buffer of 10^6 transitions per worker): once full, a new
+episode overwrites the
 oldest one."""
 
 import numpy as np
 
-from acder_lite.buffer import EpisodeBuffer
+from acder_lite.algo.buffer import EpisodeBuffer
 
 
 def _episodes(first: int, k: int, T: int) -> dict:

@@ -11,6 +11,8 @@ import types
 
 import pytest
 
+from acder_lite.cli import train as cli_train
+
 from conftest import ROOT, rows_of, run_cli
 
 TINY = (
@@ -307,7 +309,7 @@ def test_resume_into_a_folder_that_takes_no_file(tmp_path, capsys, monkeypatch):
     """A read-only run folder (root writes anywhere but there): one line before
     training, not a PermissionError at config.json's rewrite; an ended run still says
     so."""
-    from acder_lite import cli
+    from acder_lite.cli import main as cli
 
     out = tmp_path / "run"
     argv = ["train", "--env", "FetchReach-v4", "--epochs", "1", *TINY]
@@ -317,7 +319,7 @@ def test_resume_into_a_folder_that_takes_no_file(tmp_path, capsys, monkeypatch):
     def refused(folder):
         raise PermissionError(1, "Operation not permitted")
 
-    monkeypatch.setattr(cli, "probe_write", refused)
+    monkeypatch.setattr(cli_train, "probe_write", refused)
     capsys.readouterr()
     assert cli.main(["train", "--resume", str(out), "--epochs", "2", "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -329,7 +331,7 @@ def test_resume_into_a_folder_that_takes_no_file(tmp_path, capsys, monkeypatch):
 def test_out_of_memory_lines():
     """What MuJoCo, torch and numpy raise when a size is too large counts as out of
     memory (one line); anything else is not."""
-    from acder_lite.cli import _out_of_memory
+    from acder_lite.cli.main import out_of_memory
 
     class FatalError(Exception):  # mujoco.FatalError's name
         pass
@@ -341,9 +343,9 @@ def test_out_of_memory_lines():
         ValueError("array is too big; `arr.size * arr.dtype.itemsize` is larger"),
         MemoryError(),
     ):
-        assert _out_of_memory(e), e
+        assert out_of_memory(e), e
     for e in (ValueError("bad value"), RuntimeError("boom"), KeyError("memory")):
-        assert not _out_of_memory(e), e
+        assert not out_of_memory(e), e
 
 
 def test_ctrl_c_in_the_first_epoch_leaves_a_run_to_start_again(cli, tmp_path):
@@ -494,7 +496,7 @@ def test_bench_both_dtypes_ends_with_the_bench_line(cli):
 def test_help_lists_every_command_with_its_line(capsys):
     """`--help` names each command once with its `cli.COMMANDS` line, and every
     command's own `--help` opens with a description (a command without one fails)."""
-    from acder_lite import cli
+    from acder_lite.cli import main as cli
 
     with pytest.raises(SystemExit) as e:
         cli.build_parser().parse_args(["--help"])
@@ -559,7 +561,7 @@ def test_every_documented_command_parses():
     takes: every option exists and has a value of its type, and a `train` line's
     settings pass Config's checks. Catches a flag renamed in the code but not in the
     prose."""
-    from acder_lite.cli import UsageError, build_parser, given_options
+    from acder_lite.cli.main import UsageError, build_parser, given_options
     from acder_lite.config import Config
 
     cmds = documented_commands()
@@ -581,7 +583,7 @@ def test_no_command_takes_an_abbreviated_option(cli):
     option names its command, with the close one if there is one."""
     import argparse
 
-    from acder_lite.cli import build_parser
+    from acder_lite.cli.main import build_parser
 
     parser = build_parser()
     (sub,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
@@ -597,7 +599,7 @@ def test_no_command_takes_an_abbreviated_option(cli):
 
 
 def test_eval_help_gives_the_defaults(capsys):
-    from acder_lite.cli import build_parser
+    from acder_lite.cli.main import build_parser
 
     with pytest.raises(SystemExit):
         build_parser().parse_args(["eval", "--help"])
@@ -677,7 +679,7 @@ def test_threads_beyond_the_cpus_get_one_warning_line():
 def test_train_help_lists_every_method_and_task_from_their_tables(capsys):
     # from config.METHODS and config.ENV_IDS, so an added method or task shows up in
     # --help without a docstring to edit
-    from acder_lite.cli import build_parser
+    from acder_lite.cli.main import build_parser
     from acder_lite.config import ENV_IDS, METHODS
 
     with pytest.raises(SystemExit):
@@ -721,7 +723,8 @@ def _fake_bench(monkeypatch, cycle_wall):
     `cycle_wall[update_dtype]` s of wall time and 3 s of CPU, an evaluation 0.8 s of
     CPU, an update 4 ms, a simulated episode batch 0.5 s; 0.2 GFLOP an update on a
     100 GFLOP/s matmul."""
-    from acder_lite import bench, rollout, trainer
+    from acder_lite.cli import bench
+    from acder_lite.train import rollout, trainer
 
     clock = dict(wall=0.0, cpu=0.0)
 
@@ -731,7 +734,7 @@ def _fake_bench(monkeypatch, cycle_wall):
 
     class FakeTrainer:
         def __init__(self, cfg):
-            cfg.resolve()
+            cfg = cfg.resolve()
             self.cfg, self.device, self.T, self.dims = cfg, "cpu", 50, {"u": 4}
             self.envs, self.pool = [None] * cfg.workers, None
 
@@ -796,7 +799,7 @@ def test_bench_warns_when_its_matmul_reference_ran_slower_than_the_update(
     itself (a share of 5.49 was seen at --threads 2 beside the grid): the bench line
     stays as it is, and one warning line on stderr says its limit is not to be trusted.
     Below 1, no warning."""
-    from acder_lite import bench
+    from acder_lite.cli import bench
 
     run = _fake_bench(monkeypatch, {"float32": 2.0})
     assert run("float32") == 0
@@ -824,7 +827,7 @@ def test_bench_both_dtypes_keeps_float32s_line(monkeypatch, capsys):
 def test_eval_takes_seed_0(capsys):
     """--seed 0 is within 'an integer >= 0': eval goes on to the checkpoint (here one
     that is not there), so the error names the file, not the seed."""
-    from acder_lite.cli import main
+    from acder_lite.cli.main import main
 
     assert main(["eval", "--checkpoint", "no-such.pt", "--seed", "0"]) == 2
     err = capsys.readouterr().err
@@ -834,7 +837,7 @@ def test_eval_takes_seed_0(capsys):
 def test_eval_and_bench_parse_to_their_documented_defaults():
     """The defaults eval's --help states (10 episodes, seed 12345) and bench's own
     (FetchPush-v4 with HER, 4 workers, 6 cycles, 2 threads, auto precision)."""
-    from acder_lite.cli import build_parser
+    from acder_lite.cli.main import build_parser
 
     e = build_parser().parse_args(["eval", "--checkpoint", "x.pt"])
     assert (e.episodes, e.seed, e.env) == (10, 12345, None)
@@ -848,7 +851,7 @@ def test_eval_and_bench_parse_to_their_documented_defaults():
 def test_out_of_memory_names_the_commands_own_sizes(monkeypatch, capsys):
     """eval out of memory: the size to make smaller is its --episodes; bench's is
     --workers (`cli._SIZES`), not train's buffer_size."""
-    from acder_lite import cli
+    from acder_lite.cli import main as cli
 
     def oom(args):
         raise MemoryError()
@@ -857,7 +860,7 @@ def test_out_of_memory_names_the_commands_own_sizes(monkeypatch, capsys):
         ("cmd_eval", ["eval", "--checkpoint", "x.pt"], "(--episodes)"),
         ("cmd_bench", ["bench"], "(--workers)"),
     ):
-        monkeypatch.setattr(cli, command, oom)
+        monkeypatch.setattr(cli_train, command, oom)
         assert cli.main(argv) == 2
         err = capsys.readouterr().err
         assert err.startswith("error: out of memory") and err.strip().endswith(sizes)
@@ -865,7 +868,7 @@ def test_out_of_memory_names_the_commands_own_sizes(monkeypatch, capsys):
 
 def test_an_option_misspelt_twice_gets_one_hint(capsys):
     """`--epoch 2 --epoch 3`: both unknown, one option meant: '--epochs' once."""
-    from acder_lite.cli import main
+    from acder_lite.cli.main import main
 
     assert main(["train", "--epoch", "2", "--epoch", "3"]) == 2
     err = capsys.readouterr().err.strip()
@@ -876,7 +879,7 @@ def test_an_option_misspelt_twice_gets_one_hint(capsys):
 
 def test_resume_of_a_runs_file_names_its_folder(tmp_path, capsys):
     """--resume RUN/policy.pt: refused, naming RUN, the folder to give instead."""
-    from acder_lite.cli import main
+    from acder_lite.cli.main import main
 
     (tmp_path / "run").mkdir()
     (tmp_path / "run" / "policy.pt").write_bytes(b"x")
@@ -888,12 +891,12 @@ def test_resume_of_a_runs_file_names_its_folder(tmp_path, capsys):
 def test_ctrl_c_in_a_command_exits_130(monkeypatch, capsys):
     """Ctrl-C in a command other than train (which says where its checkpoint is):
     'interrupted' and exit code 130, the shell's for SIGINT."""
-    from acder_lite import cli
+    from acder_lite.cli import main as cli
 
     def interrupted(args):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "cmd_eval", interrupted)
+    monkeypatch.setattr(cli_train, "cmd_eval", interrupted)
     assert cli.main(["eval", "--checkpoint", "x.pt"]) == 130
     assert capsys.readouterr().err == "interrupted\n"
 
@@ -929,12 +932,12 @@ def test_outputs_never_replace_a_link_a_device_or_a_trained_policy(cli, tmp_path
 def test_a_file_this_user_cannot_read_is_one_line(monkeypatch, capsys):
     """A PermissionError anywhere below a command (an unreadable policy.pt, a run
     folder that cannot be entered) was a traceback and exit 1."""
-    from acder_lite import cli as C
+    from acder_lite.cli import main as C
 
     def refuse(args):
         raise PermissionError(13, "Permission denied", "runs/r1/policy.pt")
 
-    monkeypatch.setattr(C, "cmd_eval", refuse)
+    monkeypatch.setattr(cli_train, "cmd_eval", refuse)
     assert C.main(["eval", "--checkpoint", "runs/r1/policy.pt"]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert "permission denied 'runs/r1/policy.pt'" in line and "allowed:" in line
@@ -957,7 +960,7 @@ def test_threads_are_bounded_in_every_command(capsys, tmp_path):
     reached libgomp, whose thread table failed ("Out of memory allocating
     231928235112 bytes", exit 1). Config, bench, sweep and robust refuse more than
     MAX_THREADS = 1024 in one line; 1024 itself passes Config."""
-    from acder_lite.cli import main
+    from acder_lite.cli.main import main
     from acder_lite.config import MAX_THREADS, Config, ConfigError
 
     Config(threads=MAX_THREADS).validate()
@@ -979,7 +982,7 @@ def test_a_sweep_refuses_a_name_given_twice(capsys, tmp_path):
     """Found by fuzzing: `--envs X X` (or a method given twice) planned the same cell
     twice, two tasks for one folder; refused like a repeated seed, naming the option
     and the value."""
-    from acder_lite.cli import main
+    from acder_lite.cli.main import main
 
     for option, values, line in (
         ("--envs", ["FetchReach-v4"] * 2, "--envs gives 'FetchReach-v4' twice"),
@@ -999,7 +1002,7 @@ def test_counts_that_would_run_for_ever_are_refused(capsys, tmp_path):
     MAX_CYCLES, diagnose's MAX_BATCHES and MAX_EPISODES), checked before anything is
     read; and diagnose's --batches with --episodes, where --batches was ignored
     without a word, is refused."""
-    from acder_lite.cli import main
+    from acder_lite.cli.main import main
 
     for argv, needle in (
         (["bench", "--cycles", str(10**20)], "an integer in [1, 1000]"),
@@ -1021,7 +1024,7 @@ def test_an_empty_path_or_name_is_one_line_before_anything_is_done(
     fell back on results/, eval's --env on the checkpoint's, sweep's --address on a
     local Ray) or as "." (`pack ''` packed the current folder). Each is one line now,
     and nothing is read or written."""
-    from acder_lite.cli import main
+    from acder_lite.cli.main import main
 
     monkeypatch.chdir(tmp_path)
     run = tmp_path / "run"
@@ -1060,7 +1063,7 @@ def test_sweep_options_that_were_settled_silently(capsys, tmp_path):
     (or --train-args '--cycles 2') replaced a plan's config value; and `--train-args
     '--bogus'` was argparse's "expected one argument", naming neither. Each is one line
     now; a sweep option equal to the plan's value is taken."""
-    from acder_lite.cli import main
+    from acder_lite.cli.main import main
 
     plan = _plan(tmp_path, "config = { epochs = 3, cycles = 4 }\n")
     for argv, needle in (
@@ -1087,8 +1090,8 @@ def test_a_same_as_that_can_never_be_copied_is_refused(capsys, tmp_path):
     """Found by fuzzing: a plan group whose same_as is a file, or the folder its own
     runs go to, waited for ever ("its same_as run ... has not finished"); refused when
     the plan is read."""
-    from acder_lite.cli import main
-    from acder_lite.plan import PlanError, read_plan
+    from acder_lite.cli.main import main
+    from acder_lite.runs.plan import PlanError, read_plan
 
     (tmp_path / "notes.txt").write_text("keep me")
     for same_as, needle in (
@@ -1110,7 +1113,7 @@ def test_a_same_as_that_can_never_be_copied_is_refused(capsys, tmp_path):
 def test_a_dry_run_says_when_its_results_cannot_be_written(capsys):
     """Found by fuzzing: `sweep --dry-run --results /proc/x` said "1 to run" (os.access
     says yes to root), and every cell would have failed in its task."""
-    from acder_lite.cli import main
+    from acder_lite.cli.main import main
 
     assert main([*REACH_GRID, "--results", "/proc/acder-x", "--dry-run"]) == 2
     line = _error_line(capsys)
@@ -1124,8 +1127,8 @@ def test_a_run_inside_a_run_is_refused(capsys, tmp_path):
     the run folder above and the file that makes it one (`runs.run_folder_above`),
     before anything is made. Another tool's progress.csv, checkpoint.pt or config.json
     makes no run (a stray ~/checkpoint.pt must not refuse every run under $HOME)."""
-    from acder_lite.cli import main
-    from acder_lite.runs import run_folder_above
+    from acder_lite.cli.main import main
+    from acder_lite.runs.read import run_folder_above
 
     run = tmp_path / "run"
     run.mkdir()
@@ -1169,8 +1172,8 @@ def test_a_plan_may_not_set_threads(capsys, tmp_path):
     reserves for each cell, which a plan's value could not change, and threads change
     how fast a run goes, not its numbers: the plan refuses it, in a group or in
     [defaults], with or without sweep --threads."""
-    from acder_lite.cli import main
-    from acder_lite.plan import PlanError, read_plan
+    from acder_lite.cli.main import main
+    from acder_lite.runs.plan import PlanError, read_plan
 
     plan = _plan(tmp_path, "config = { threads = 2 }\n")
     with pytest.raises(PlanError, match="group 1: config may not set 'threads'"):

@@ -5,7 +5,7 @@ import pytest
 import torch
 
 from acder_lite.config import Config, ConfigError
-from acder_lite.ddpg import DDPG, compute_loss_pi, compute_loss_q
+from acder_lite.algo.ddpg import DDPG, compute_loss_pi, compute_loss_q
 
 # one worker (`make test`: --dist loadgroup): the first test's graphs serve the rest
 pytestmark = pytest.mark.xdist_group("compile")
@@ -90,9 +90,9 @@ def test_compiled_split_update_is_the_one_thread_compiled_update():
 
 
 def test_compile_update_option():
-    from acder_lite.cli import build_parser
-    from acder_lite import sweep as S
-    from acder_lite.plan import Cell, run_dir
+    from acder_lite.cli.main import build_parser
+    from acder_lite.cli import sweep as S
+    from acder_lite.runs.plan import Cell, run_dir
 
     parse = build_parser().parse_args
     assert parse(["train", "--compile-update", "--out", "x"]).compile_update is True
@@ -122,7 +122,7 @@ def test_compile_loss_uses_the_default_partitioner(monkeypatch):
     """compile_loss asks inductor for AOTAutograd's default partitioner (not min-cut,
     whose bool ReLU masks made the compiled update 1.35x slower), static shapes and
     one graph; the loss function itself is what is compiled."""
-    from acder_lite.compiled import DefaultPartition, compile_loss
+    from acder_lite.algo.compiled import DefaultPartition, compile_loss
 
     seen = {}
 

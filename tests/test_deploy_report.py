@@ -1,9 +1,9 @@
-"""Chapter 10's reading of the runs it benches (acder_lite.deploy_report), on
+"""Chapter 10's reading of the runs it benches (acder_lite.book.deploy_report), on
 hand-made runs: which finished run each column takes, where the full-state policy came
 from, where a run crossed its threshold and how it ended, and whether a task's columns
 trained as long."""
 
-from acder_lite.deploy_report import (
+from acder_lite.book.deploy_report import (
     STAND_IN,
     TRAINING_HEADER,
     full_state_sentence,
@@ -131,7 +131,7 @@ def test_policies_take_a_finished_run_and_the_stand_in_until_the_grids_finishes(
 
 
 def test_the_scene_takes_the_simplified_policy_else_the_full_one_and_says_how_it_went():
-    from acder_lite.deploy_report import scene_label, scene_sentence
+    from acder_lite.book.deploy_report import scene_label, scene_sentence
 
     both = {"full state": "results/x", "simplified state": "experiments/deploy/x"}
     assert scene_label(both) == "simplified state"
@@ -150,7 +150,7 @@ def test_the_scene_takes_the_simplified_policy_else_the_full_one_and_says_how_it
 
 def test_policy_clips_as_the_policy_records_them_else_the_training_defaults():
     from acder_lite.config import Config
-    from acder_lite.deploy_report import policy_clips
+    from acder_lite.book.deploy_report import policy_clips
 
     assert policy_clips(dict(clip_obs=5.0, norm=dict(clip=3.0))) == (5.0, 3.0)
     assert policy_clips(None) == (Config().clip_obs, Config().norm_clip)

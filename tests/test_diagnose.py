@@ -6,13 +6,14 @@ import os
 
 import numpy as np
 import pytest
+
 import torch
 
-from acder_lite import diagnose as D
-from acder_lite import envs as E
-from acder_lite.trainer import Trainer
+from acder_lite.cli import diagnose as D
+from acder_lite.envs import fetch as E
+from acder_lite.train.trainer import Trainer
 
-from conftest import tiny_config
+from conftest import rewards_of, tiny_config
 from test_cli import one_line_error
 
 
@@ -160,7 +161,7 @@ def test_diagnose_cli(tmp_path, cli):
 def test_diagnose_reads_a_packed_run_as_its_checkpoint(tmp_path):
     """A run carried over in git has checkpoint.packed/ and no checkpoint.pt: diagnose
     rebuilds the buffer and gives the numbers of the checkpoint it was packed from."""
-    from acder_lite import packed
+    from acder_lite.runs import packed
     from acder_lite.io import load_torch
 
     run = tmp_path / "acder"
@@ -495,7 +496,7 @@ def test_minibatch_errors_match_the_trainers_intrinsic_reward():
     seen = {}
     tr.cfg.eta = 1e9
     tr.selector.offer = lambda batch, r_int, *rest: seen.setdefault("r", r_int.copy())
-    tr.rewards(b, tr.batch_tensors(b))
+    rewards_of(tr, b)
     np.testing.assert_allclose(out["err"][:B], seen["r"], rtol=1e-5)
     assert np.ptp(seen["r"]) > 0  # distinct rows, compared one by one
 
@@ -593,6 +594,6 @@ def test_motion_stats_share_of_episodes_with_a_wrap_by_hand():
     rot = np.zeros((4, 6, 3))
     rot[0, :, 2] = [3, 3, 3, -3, -3, -3]
     rot[1, :, 2] = [3, -3, 3, 3, 3, 3]
-    m = D._motion_stats(ag, velr, 0.04, rot)
+    m = D.motion_stats(ag, velr, 0.04, rot)
     assert m["wrap_step_share"] == pytest.approx(0.15)
     assert m["wrap_episode_share"] == 0.5

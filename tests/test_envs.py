@@ -2,7 +2,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from acder_lite import envs as E
+from acder_lite.envs import fetch as E
 from acder_lite.config import ConfigError
 
 
@@ -168,10 +168,12 @@ def test_obs_names_label_each_finger_by_its_joint():
 def test_a_task_added_to_the_tables_but_not_registered_is_one_line(
     tmp_path, capsys, monkeypatch
 ):
-    """README's 'Extending it' adds a task to `ENV_IDS` and `TASK_PRESETS`; forgetting
-    to register it with gymnasium gives one line naming the id (exit 2), not
+    """'Using acder_lite' (book/using.md), 'Extending it', adds a task to `ENV_IDS` and
+    `TASK_PRESETS`; forgetting to register it with gymnasium gives one line naming the
+    id (exit 2), not
     gymnasium's NameNotFound traceback, and writes no run file."""
-    from acder_lite import cli, config
+    from acder_lite.cli import main as cli
+    from acder_lite import config
 
     ids = (*config.ENV_IDS, "FetchFoo-v1")
     presets = {

@@ -1,13 +1,14 @@
 """The sentences the book says about the experiments beside the grid
-(acder_lite.experiment_findings: the constant-bonus control, the (sin, cos) run, the
-readings), on synthetic cells: two equal seeds a cell make each 95% interval its
+(acder_lite.book.experiment_findings: the constant-bonus control, the (sin, cos) run,
+the readings), on synthetic cells: two equal seeds a cell make each 95% interval its
 crossing."""
 
 import math
 
 import pytest
 
-from acder_lite import experiment_findings as EF, report as RE
+from acder_lite.book import experiment_findings as EF
+from acder_lite.stats import report as RE
 
 from conftest import curve_cell, push_cell
 

@@ -8,19 +8,25 @@ import numpy as np
 import pytest
 import torch
 
-from acder_lite import envs as E
-from acder_lite.core import Actor
-from acder_lite.export import META_FILE, build, export_torchscript, run_standalone
-from acder_lite.normalizer import Normalizer
-from acder_lite.observations import simplified_indices
-from acder_lite.rollout import Policy
+from acder_lite.envs import fetch as E
+from acder_lite.algo.core import Actor
+from acder_lite.deploy.export import (
+    META_FILE,
+    build,
+    export_torchscript,
+    run_standalone,
+)
+from acder_lite.algo.normalizer import Normalizer
+from acder_lite.envs.observations import simplified_indices
+from acder_lite.train.rollout import Policy
 
 from test_cli import one_line_error
 
 pytestmark = pytest.mark.filterwarnings(
     "ignore:`torch.jit.load` is deprecated:DeprecationWarning"
 )
-"""torch 2.13 deprecates TorchScript (acder_lite.export's docstring); the robot side
+"""torch 2.13 deprecates TorchScript (acder_lite.deploy.export's docstring); the robot
+side
 still loads it."""
 
 SIZES = {
@@ -141,7 +147,7 @@ def test_loads_in_a_process_without_acder_lite(tmp_path):
 def test_compare_with_package(tmp_path):
     """The book's check (chapter 10): export, act on the robot side and in the package
     on the same random inputs, compare."""
-    from acder_lite.export import compare_with_package
+    from acder_lite.deploy.export import compare_with_package
 
     pol = policy_dict("FetchPush-v4", "simplified", spread=0.05)
     check = compare_with_package(pol, str(tmp_path / "push.ts"), source="p.pt", n=20)
@@ -164,9 +170,9 @@ def test_build_refuses_a_policy_whose_sizes_are_not_its_task(tmp_path):
 def test_metadata_says_how_far_the_run_trained(tmp_path):
     """A policy.pt carries its run's epochs, episodes and last test success; an older
     one (written without them) is read from the done.json beside it, else unknown."""
-    from acder_lite.export import trained_of
+    from acder_lite.deploy.export import trained_of
     from acder_lite.io import load_torch
-    from acder_lite.trainer import Trainer
+    from acder_lite.train.trainer import Trainer
 
     from conftest import rows_of, tiny_config
 
@@ -216,7 +222,7 @@ def test_onnx_same_actions(tmp_path):
     # fails here
     import onnxruntime as ort
 
-    from acder_lite.export import export_onnx
+    from acder_lite.deploy.export import export_onnx
 
     pol = policy_dict("FetchPush-v4", "simplified")
     export_onnx(pol, str(tmp_path / "p.onnx"))
@@ -235,7 +241,7 @@ def test_onnx_same_actions(tmp_path):
 
 def test_trained_text_counts_in_words():
     """'trained 1 epoch', not '1 epochs'; fractions and more are plural."""
-    from acder_lite.export import trained_text
+    from acder_lite.deploy.export import trained_text
 
     one = trained_text(dict(epochs=1.0, episodes=1, test_success=None))
     assert one == "trained 1 epoch, 1 episode"

@@ -1,12 +1,13 @@
-"""Chapter 5's readings of Eq. 6's factor (acder_lite.factor_report), from values worked
-by hand: the factor of actions pointing at the goal, away from it, across it and at the
-action box's corners, and the sentence on the minibatch against random actions. The
+"""Chapter 5's readings of Eq. 6's factor (acder_lite.book.factor_report), from values
+worked by hand: the factor of actions pointing at the goal, away from it, across it and
+at the action box's corners, and the sentence on the minibatch against random actions.
+The
 figures of them: test_plots.py."""
 
 import numpy as np
 import pytest
 
-from acder_lite import factor_report as F
+from acder_lite.book import factor_report as F
 
 GOAL = np.array([0.1, 0.0, 0.0])  # the chapter's: ahead of the gripper along +x
 

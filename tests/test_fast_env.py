@@ -1,4 +1,4 @@
-"""acder_lite.fastobs (issue 17): the env's fast `_get_obs`, `_set_action` and
+"""acder_lite.envs.fastobs (issue 17): the env's fast `_get_obs`, `_set_action` and
 `_step_callback` give gymnasium-robotics' numbers bit for bit, and fresh arrays.
 
 Each case steps a fast env (`make_env`'s default) and a reference env of the same seed
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from gymnasium_robotics.envs.fetch.reach import MujocoFetchReachEnv
 
-from acder_lite import envs as E
-from acder_lite.fastobs import install
+from acder_lite.envs import fetch as E
+from acder_lite.envs.fastobs import install
 
 FAST = ("_get_obs", "_set_action", "_step_callback")
 CASES = [

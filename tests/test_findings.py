@@ -1,10 +1,11 @@
-"""The sentences the book says about Table I and Fig. 4 (acder_lite.findings), on
+"""The sentences the book says about Table I and Fig. 4 (acder_lite.book.findings), on
 synthetic cells: two equal seeds a cell make each 95% interval its crossing."""
 
 import numpy as np
 import pytest
 
-from acder_lite import findings as F, report as RE
+from acder_lite.book import findings as F
+from acder_lite.stats import report as RE
 from acder_lite.words import sentence
 
 from conftest import curve_cell, her_acder_cells
@@ -34,7 +35,7 @@ def test_sentences_for_the_book():
 
 
 def test_grid_state_counts_the_three_tasks_cells_only():
-    from acder_lite.report import CellStat, grid_cells
+    from acder_lite.stats.report import CellStat, grid_cells
 
     grid = grid_cells()
     cells = [

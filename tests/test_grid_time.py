@@ -1,4 +1,4 @@
-"""The time a sweep has left (`acder_lite.grid_time`), on run folders with known
+"""The time a sweep has left (`acder_lite.runs.grid_time`), on run folders with known
 seconds an epoch and known stopping epochs."""
 
 import csv
@@ -6,9 +6,9 @@ import json
 
 import pytest
 
-from acder_lite import grid_time as G
-from acder_lite.plan import plan, run_dir
-from acder_lite.cli import main
+from acder_lite.runs import grid_time as G
+from acder_lite.runs.plan import plan, run_dir
+from acder_lite.cli.main import main
 from acder_lite.config import Config
 
 P, PP = "FetchPush-v4", "FetchPickAndPlace-v4"

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from acder_lite.envs import make_env
-from acder_lite.her import sample_her_transitions
+from acder_lite.envs.fetch import make_env
+from acder_lite.algo.her import sample_her_transitions
 
 
 @pytest.fixture(scope="module")
@@ -124,7 +124,7 @@ def test_future_p_follows_replay_k_and_the_method(method, replay_k, future_p):
 
 
 def test_ddpg_minibatches_keep_their_own_goals():
-    from acder_lite.trainer import Trainer
+    from acder_lite.train.trainer import Trainer
 
     from conftest import tiny_config
 

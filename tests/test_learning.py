@@ -11,7 +11,7 @@ test episodes) with test success >= 0.9.
 import pytest
 
 from acder_lite.config import Config
-from acder_lite.trainer import Trainer
+from acder_lite.train.trainer import Trainer
 
 
 @pytest.mark.parametrize(

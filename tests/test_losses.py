@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 import torch
 
-from acder_lite.core import Actor, Critic
-from acder_lite.curiosity import ICM, SICM
-from acder_lite.ddpg import compute_loss_pi, compute_loss_q
+from acder_lite.algo.core import Actor, Critic
+from acder_lite.algo.curiosity import ICM, SICM
+from acder_lite.algo.ddpg import compute_loss_pi, compute_loss_q
 
 
 def const_critic(c):
@@ -125,7 +125,7 @@ def test_loss_q_reads_the_next_state_and_the_target_actor():
 
 def test_actor_loss_does_not_train_the_critic():
     from acder_lite.config import Config
-    from acder_lite.ddpg import DDPG
+    from acder_lite.algo.ddpg import DDPG
 
     torch.manual_seed(0)
     cfg = Config(hidden=16, layers=2).resolve()
@@ -156,7 +156,7 @@ def random_batch(n: int) -> dict:
 
 
 def test_frozen_view_shares_the_weights_without_their_gradients():
-    from acder_lite.core import Critic, frozen_view
+    from acder_lite.algo.core import Critic, frozen_view
 
     torch.manual_seed(0)
     net = Critic(3, 2, hidden=8, layers=2)
@@ -186,7 +186,7 @@ def test_split_update_is_the_one_thread_update(update_dtype):
     same weights, bit for bit, after 5 steps (one intra-op thread each). bfloat16:
     the actor's thread enters autocast itself."""
     from acder_lite.config import Config
-    from acder_lite.ddpg import DDPG
+    from acder_lite.algo.ddpg import DDPG
 
     torch.set_num_threads(1)
     torch.manual_seed(0)
@@ -210,7 +210,7 @@ def test_bfloat16_update_follows_float32():
     """`update_dtype='bfloat16'`: the same step as fp32 up to bf16 rounding,
     on fp32 weights."""
     from acder_lite.config import Config
-    from acder_lite.ddpg import DDPG
+    from acder_lite.algo.ddpg import DDPG
 
     torch.manual_seed(0)
     b = random_batch(512)
@@ -240,7 +240,7 @@ def test_bfloat16_update_follows_float32():
 
 def test_polyak():
     from acder_lite.config import Config
-    from acder_lite.ddpg import DDPG
+    from acder_lite.algo.ddpg import DDPG
 
     cfg = Config(hidden=8, layers=1, polyak=0.95).resolve()
     agent = DDPG(3, 2, cfg)
@@ -308,7 +308,7 @@ def test_icm_step_loss_is_the_weighted_sum_on_a_hand_worked_batch():
 
 @pytest.mark.parametrize("cls", [SICM, ICM])
 def test_curiosity_losses_decrease_on_a_fixed_batch(cls):
-    from acder_lite.rewards import intrinsic_reward
+    from acder_lite.algo.rewards import intrinsic_reward
 
     torch.manual_seed(0)
     s, a = torch.randn(256, 6), torch.rand(256, 2) * 2 - 1
@@ -330,7 +330,7 @@ def test_curiosity_losses_decrease_on_a_fixed_batch(cls):
 
 
 def test_sicm_reward_is_eq4_before_the_update():
-    from acder_lite.rewards import intrinsic_reward
+    from acder_lite.algo.rewards import intrinsic_reward
 
     torch.manual_seed(1)
     m = SICM(5, 2, hidden=16)
@@ -349,7 +349,7 @@ def test_sicm_reward_is_eq4_before_the_update():
 def test_icm_reward_is_on_its_features_before_the_update():
     """ICM's (pred, target) are phi(s') as its forward model predicts it and
     phi(s') itself."""
-    from acder_lite.rewards import intrinsic_reward
+    from acder_lite.algo.rewards import intrinsic_reward
 
     torch.manual_seed(2)
     m = ICM(5, 2, feat_dim=4, hidden=16)
@@ -425,7 +425,7 @@ def test_update_takes_eq2s_target_from_the_target_actor():
     actor y = r + 0.98 * 1.5232 clips to 0 on every row (clip [-50, 0]) and td = 0. The
     networks are set after construction, where actor and target are still equal."""
     from acder_lite.config import Config
-    from acder_lite.ddpg import DDPG
+    from acder_lite.algo.ddpg import DDPG
 
     agent = DDPG(3, 2, Config(hidden=4, layers=1, gamma=0.98).resolve())
     with torch.no_grad():

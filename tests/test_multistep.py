@@ -1,4 +1,4 @@
-"""FetchPushMultiStep-v0 (acder_lite.multistep): two blocks, two targets,
+"""FetchPushMultiStep-v0 (acder_lite.envs.multistep): two blocks, two targets,
 success only with both.
 
 Spaces (gymnasium's checker), the 2-block reward and success, batched rewards, seeding,
@@ -14,8 +14,9 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import acder_lite  # noqa: F401  (registers FetchPushMultiStep-v0)
-from acder_lite import envs as E
-from acder_lite import multistep as M
+from acder_lite.envs import fetch as E
+from acder_lite.envs import multistep as M
+from acder_lite.book import pusher as P
 from acder_lite.config import (
     ENV_IDS,
     METHODS,
@@ -248,7 +249,7 @@ def test_a_scripted_pusher_solves_seeded_episodes_within_100_steps():
         obs, ok, h = env._get_obs(), False, env.height_offset
         assert not env._is_success(obs["achieved_goal"], env.goal)
         for _ in range(T):
-            obs, ok = E.step(env, M.scripted_push(obs["observation"], env.goal, h))
+            obs, ok = E.step(env, P.scripted_push(obs["observation"], env.goal, h))
         wins.append(ok)  # success at the last step, as training counts it
         env.close()
     # measured: 5 of these 6 (and 16 of seeds 0-19)
@@ -260,8 +261,8 @@ def test_the_batched_pusher_is_the_pusher_row_by_row():
     o = np.stack([e._get_obs()["observation"] for e in envs])
     g = np.stack([e.goal for e in envs])
     h = envs[0].height_offset
-    got = M.scripted_pusher(h)(o, g)
-    want = np.stack([M.scripted_push(oi, gi, h) for oi, gi in zip(o, g)])
+    got = P.scripted_pusher(h)(o, g)
+    want = np.stack([P.scripted_push(oi, gi, h) for oi, gi in zip(o, g)])
     assert got.shape == (3, 4) and np.array_equal(got, want) and np.abs(got).max() > 0
 
 
@@ -311,7 +312,7 @@ def test_bad_id_on_the_command_line(cli, tmp_path):
 
 
 def test_goal_factor_targets_the_block_farthest_from_its_own():
-    from acder_lite.rewards import goal_factor_target
+    from acder_lite.algo.rewards import goal_factor_target
 
     g3 = np.array([[0.1, 0.2, 0.3]])
     assert (
@@ -330,7 +331,7 @@ def test_goal_factor_targets_the_block_farthest_from_its_own():
 
 
 def test_energy_counts_both_blocks():
-    from acder_lite.priority import trajectory_energy
+    from acder_lite.algo.priority import trajectory_energy
 
     T = 10
     still = np.zeros((1, T + 1, 3))
@@ -349,7 +350,7 @@ def test_energy_counts_both_blocks():
 
 @pytest.mark.parametrize("method", sorted(METHODS))
 def test_every_method_runs_on_the_multistep_push(method):
-    from acder_lite.trainer import Trainer
+    from acder_lite.train.trainer import Trainer
     from conftest import tiny_config
 
     tr = Trainer(
@@ -363,15 +364,15 @@ def test_every_method_runs_on_the_multistep_push(method):
 
 def test_the_pusher_refuses_a_selected_observation():
     with pytest.raises(ValueError, match=r"o \(40,\)"):
-        M.scripted_push(np.zeros(17), np.zeros(6), 0.42)
+        P.scripted_push(np.zeros(17), np.zeros(6), 0.42)
 
 
 def test_the_books_pusher_and_random_counts():
     """Chapter 9's numbers: the scripted pusher's successes per seed, and a random arm's
     shares, deterministic for a seed."""
-    wins = M.pusher_successes(range(3))
+    wins = P.pusher_successes(range(3))
     assert wins.dtype == bool and wins.shape == (3,) and wins.sum() >= 2
-    a, b = M.random_counts(4, seed=0), M.random_counts(4, seed=0)
+    a, b = P.random_counts(4, seed=0), P.random_counts(4, seed=0)
     assert a == b and a["episodes"] == 4 and 0 <= a["success"] <= a["one"] <= 1
     assert a["n_success"] == round(4 * a["success"]) and a["n_one"] == round(
         4 * a["one"]
@@ -382,9 +383,9 @@ def test_start_on_targets_is_the_envs_success_rule_at_reset():
     """Chapter 9's chance level: episodes that start solved, seeded; `both` is the env's
     own `_is_success` right after reset, `one` at least one block within the
     threshold."""
-    got = M.start_on_targets([0, 1], 300)
+    got = P.start_on_targets([0, 1], 300)
     assert got["both"].shape == got["one"].shape == (300, 2)
-    again = M.start_on_targets([0, 1], 300)
+    again = P.start_on_targets([0, 1], 300)
     assert (got["both"] == again["both"]).all() and (got["one"] == again["one"]).all()
     assert not (got["both"] & ~got["one"]).any()
     assert 0 < got["one"].mean() < 0.5 and got["both"].mean() < 0.05
@@ -400,7 +401,7 @@ def test_start_on_targets_is_the_envs_success_rule_at_reset():
 def test_the_trainers_test_envs_are_replayed():
     """`envs.run_env_seeds` is the trainer's rule: its test envs reset to the same goals
     as envs made with those seeds; `solved_test_starts` counts per evaluation."""
-    from acder_lite.trainer import Trainer
+    from acder_lite.train.trainer import Trainer
     from conftest import tiny_config
 
     cfg = tiny_config(env=ID, method="her", seed=3, workers=2)
@@ -413,8 +414,8 @@ def test_the_trainers_test_envs_are_replayed():
         np.testing.assert_array_equal(
             env.reset()[0]["desired_goal"], mine.reset()[0]["desired_goal"]
         )
-    per = M.solved_test_starts(dict(seed=3, workers=2, test_episodes=5), 4)
-    both = M.start_on_targets(seeds, 20)["both"]
+    per = P.solved_test_starts(dict(seed=3, workers=2, test_episodes=5), 4)
+    both = P.start_on_targets(seeds, 20)["both"]
     assert per.shape == (4,)
     np.testing.assert_array_equal(per, both.reshape(4, 10).sum(axis=1))
 
@@ -424,10 +425,10 @@ def test_the_pusher_leaves_a_block_within_push_done():
     pusher does nothing."""
     env = E.make_env(ID, seed=0)
     o, g = env._get_obs()["observation"].copy(), env.goal.copy()
-    o[3:9] = g + np.r_[0.9, 0, 0, 0, 0.9, 0] * M.PUSH_DONE
-    np.testing.assert_array_equal(M.scripted_push(o, g, env.height_offset), 0.0)
-    o[3:9] = g + np.r_[1.1, 0, 0, 0, 0, 0] * M.PUSH_DONE
-    assert np.abs(M.scripted_push(o, g, env.height_offset)).sum() > 0
+    o[3:9] = g + np.r_[0.9, 0, 0, 0, 0.9, 0] * P.PUSH_DONE
+    np.testing.assert_array_equal(P.scripted_push(o, g, env.height_offset), 0.0)
+    o[3:9] = g + np.r_[1.1, 0, 0, 0, 0, 0] * P.PUSH_DONE
+    assert np.abs(P.scripted_push(o, g, env.height_offset)).sum() > 0
 
 
 def test_block_distances_by_hand():

@@ -1,12 +1,13 @@
-"""Chapter 9's reading of the multi-step Push runs (acder_lite.multistep_report): the
+"""Chapter 9's reading of the multi-step Push runs (acder_lite.book.multistep_report):
+the
 plan, each method's progress, the chance level and the sentences the chapter glues."""
 
 import dataclasses
 
 import pytest
 
-from acder_lite import multistep_report as MR
-from acder_lite.multistep_report import (
+from acder_lite.book import multistep_report as MR
+from acder_lite.book.multistep_report import (
     acder_note,
     acder_parts,
     acder_parts_sentence,
@@ -295,7 +296,7 @@ def test_best_sentence_counts_a_best_exactly_at_the_threshold():
 def test_versus_chance_at_the_edges_of_the_interval_is_at():
     """Above or below only when the whole interval lies beyond the chance level: an
     interval that ends exactly at it is 'at'."""
-    from acder_lite.trial_stats import wilson_interval
+    from acder_lite.stats.trial_stats import wilson_interval
 
     lo, hi = wilson_interval(21, 3200)
     assert versus_chance(21, 3200, lo) == "at"

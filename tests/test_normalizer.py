@@ -1,7 +1,7 @@
 import numpy as np
 import torch
 
-from acder_lite.normalizer import Normalizer
+from acder_lite.algo.normalizer import Normalizer
 
 
 def test_matches_numpy_mean_std():

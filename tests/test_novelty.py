@@ -1,4 +1,4 @@
-"""Chapter 4's reading of familiar against unseen transitions (acder_lite.novelty):
+"""Chapter 4's reading of familiar against unseen transitions (acder_lite.book.novelty):
 S-ICM's errors on whole episodes, the sets and their shares at the clip, and the
 sentences that say what they show, from numbers worked by hand. The figures of them:
 test_plots.py."""
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import torch
 
-from acder_lite import novelty as N
-from acder_lite.trainer import Trainer
+from acder_lite.book import novelty as N
+from acder_lite.train.trainer import Trainer
 
 from conftest import tiny_config
 
@@ -19,8 +19,8 @@ def _push_trainer(**kw):
 
 @pytest.mark.parametrize("sicm_input", ["normalised", "raw"])
 def test_episode_errors_are_eq4_of_each_step(sicm_input):
-    from acder_lite.rewards import intrinsic_reward
-    from acder_lite.rollout import run_episodes
+    from acder_lite.algo.rewards import intrinsic_reward
+    from acder_lite.train.rollout import run_episodes
 
     tr = _push_trainer(sicm_input=sicm_input)
     ep = run_episodes(tr.envs, tr.explore_act, tr.T)
@@ -93,7 +93,7 @@ def test_novelty_contrast_says_what_the_numbers_show():
 
 def test_episode_errors_need_sicm():
     from acder_lite.config import ConfigError
-    from acder_lite.rollout import run_episodes
+    from acder_lite.train.rollout import run_episodes
 
     tr = Trainer(tiny_config(method="her"))
     ep = run_episodes(tr.envs, tr.explore_act, tr.T)
@@ -102,7 +102,7 @@ def test_episode_errors_need_sicm():
 
 
 def test_error_sets_put_the_buffers_first_episodes_first_then_the_given_ones():
-    from acder_lite.rollout import run_episodes
+    from acder_lite.train.rollout import run_episodes
 
     trs = {inp: _push_trainer(sicm_input=inp) for inp in ("normalised", "raw")}
     for t in trs.values():

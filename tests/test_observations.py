@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from acder_lite import envs as E
+from acder_lite.envs import fetch as E
 from acder_lite.config import Config, ConfigError
-from acder_lite.observations import (
+from acder_lite.envs.observations import (
     indices,
     on_full,
     policy_obs,
@@ -50,7 +50,7 @@ INDICES = {
     "FetchPickAndPlace-v4": list(range(11)),
     "FetchPushMultiStep-v0": list(range(17)),
 }
-"""The table of `acder_lite.observations`' docstring."""
+"""The table of `acder_lite.envs.observations`' docstring."""
 
 
 @pytest.mark.parametrize("env_id", list(KEPT))
@@ -133,7 +133,7 @@ def test_on_full_shows_a_policy_its_own_entries():
 def test_simplified_trainer_on_the_two_block_push():
     """Every ACDER part on the 17-entry state: S-ICM's sizes, the goal factor on o[:3],
     the start states."""
-    from acder_lite.trainer import Trainer
+    from acder_lite.train.trainer import Trainer
 
     tr = Trainer(
         tiny_config(
@@ -175,14 +175,14 @@ def test_simplified_training_end_to_end(cli, tmp_path, capsys):
 
     pol = load_torch(str(run / "policy.pt"))["policy"]
     assert pol["obs"] == "simplified" and pol["norm"]["o"] == 11
-    from acder_lite.cli import main  # eval and the refused resume, in this process
+    from acder_lite.cli.main import main  # eval and the refused resume, in this process
 
     capsys.readouterr()
     assert (
         main(["eval", "--checkpoint", str(run / "policy.pt"), "--episodes", "1"]) == 0
     )
     assert "success_rate=" in capsys.readouterr().out
-    from acder_lite.diagnose import diagnose
+    from acder_lite.cli.diagnose import diagnose
 
     assert diagnose(str(run), episodes=1)["motion"]["episodes"] >= 1
     assert main(["train", "--resume", str(run), "--obs", "full", "--quiet"]) == 2

@@ -1,5 +1,5 @@
-"""Packed checkpoints (`acder_lite.packed`): a run carried to another machine as its
-first states and actions resumes to the numbers of an uninterrupted run; a packed
+"""Packed checkpoints (`acder_lite.runs.packed`): a run carried to another machine as
+its first states and actions resumes to the numbers of an uninterrupted run; a packed
 buffer that does not re-simulate to its digest is refused; packing again adds only
 the new episodes."""
 
@@ -10,11 +10,11 @@ import json
 import numpy as np
 import pytest
 
-from acder_lite import packed
-from acder_lite.cli import main
+from acder_lite.runs import packed
+from acder_lite.cli.main import main
 from acder_lite.io import CheckpointError, load_torch
-from acder_lite.plan import cell_state
-from acder_lite.trainer import Trainer
+from acder_lite.runs.plan import cell_state
+from acder_lite.train.trainer import Trainer
 
 from conftest import rows_of, tiny_config
 

@@ -1,9 +1,10 @@
-"""One seed's reading for chapter 7 (acder_lite.per_seed): each seed's first crossing
+"""One seed's reading for chapter 7 (acder_lite.book.per_seed): each seed's first
+crossing
 of the threshold, and how the live runs ended."""
 
 
 def test_seed_crossings_reads_each_seeds_first_crossing():
-    from acder_lite.per_seed import seed_crossings
+    from acder_lite.book.per_seed import seed_crossings
 
     def run(seed, values, name="her", env="FetchPush-v4"):
         rows = [
@@ -23,7 +24,7 @@ def test_seed_crossings_reads_each_seeds_first_crossing():
     assert out[0] == dict(seed=0, hit=None, best=0.3, episodes=800.0)
     assert out[1] == dict(seed=1, hit=800.0, best=0.96, episodes=1200.0)
     assert seed_crossings(runs, "FetchPush-v4", "her-per", 0.95) == []
-    from acder_lite.per_seed import crossing_text
+    from acder_lite.book.per_seed import crossing_text
 
     assert [crossing_text(s) for s in out] == [
         "seed 0: not reached (best 0.30 in 800)",
@@ -32,7 +33,7 @@ def test_seed_crossings_reads_each_seeds_first_crossing():
 
 
 def test_live_ended_names_the_runs_that_stopped_and_a_stop_rule_that_could_not():
-    from acder_lite.per_seed import live_ended
+    from acder_lite.book.per_seed import live_ended
 
     both = {"acder": (40, None), "her": (36, None)}
     assert live_ended(both, 5, 5) == "both ran the full 40 episodes"

@@ -6,9 +6,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from acder_lite import envs as E
+from acder_lite.envs import fetch as E
 from acder_lite.config import ConfigError
-from acder_lite.perturb import (
+from acder_lite.deploy.perturb import (
     KNOBS,
     Layout,
     Perturbed,

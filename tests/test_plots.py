@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib import colors as mcolors  # noqa: E402
 
-from acder_lite import plots  # noqa: E402
+from acder_lite.book import plots  # noqa: E402
 
 
 def push_run(seed, values, ended, budget=50.0):
@@ -90,7 +90,7 @@ def test_learning_curves_legend_keys_the_threshold_dotted_and_dot():
 def test_seed_ends_a_cut_seed_ends_the_mean_curve_a_stopped_one_is_carried():
     """Seed 0 stopped by the stop rule at epoch 2 (carried forward to the budget),
     seed 1 cut at epoch 3: the mean curve ends at epoch 3, the end of the cut seed."""
-    from acder_lite import report
+    from acder_lite.stats import report
 
     runs = [
         push_run(0, [0.9, 1.0], "stop rule"),
@@ -244,7 +244,7 @@ def test_factor_arrows_titles_the_factor_and_the_failed_steps_reward():
 
 
 def test_alpha_point_marks_eq_9_at_the_success_rate():
-    from acder_lite.start_states import novel_start_ratio
+    from acder_lite.algo.start_states import novel_start_ratio
 
     fig, ax = plt.subplots()
     plots.alpha_point(ax, 0.7, 0.5)
@@ -312,7 +312,7 @@ def test_rollout_errors_the_reward_clipped_at_each_eta_and_the_sweep_marked():
 
 def test_alpha_curves_one_curve_an_alpha0_of_the_presets(monkeypatch):
     from acder_lite.config import TASK_PRESETS
-    from acder_lite.start_states import novel_start_ratio
+    from acder_lite.algo.start_states import novel_start_ratio
 
     fig, ax = plt.subplots()
     plots.alpha_curves(ax)
@@ -340,7 +340,7 @@ def test_factor_curve_the_line_over_the_dots_and_the_corners_dashed():
     """Chapter 5's Eq. 6 on hand-made actions: the rotated action's line, the random
     actions' dots behind it, and under them their histogram with a dashed line at
     each corner's factor, labelled once."""
-    from acder_lite import factor_report as F
+    from acder_lite.book import factor_report as F
 
     goal = np.array([0.1, 0.0, 0.0])
     line = F.rotated_actions(goal, azimuth=[-90, 0, 90])
@@ -443,7 +443,7 @@ def test_the_carried_part_is_dotted_on_from_the_last_evaluation():
         push_run(0, [0.9, 1.0], "stop rule", budget=4.0),
         push_run(1, [0.5, 0.8, 0.9, 1.0], "budget", budget=4.0),
     ]
-    from acder_lite import report
+    from acder_lite.stats import report
 
     m = report.learning_curves(runs)
     fig, ax = plt.subplots()
@@ -511,7 +511,7 @@ def test_factor_arrows_point_to_the_goal_in_any_direction():
     """The red arrow is the goal's xy direction at length 0.8 (the unit action's
     length), wherever the goal lies: (0, -0.3) gives (0, -0.8), (0.1, 0) (0.8, 0); a
     goal straight above has no xy direction, and no arrow."""
-    from acder_lite.plots import factor_arrows
+    from acder_lite.book.plots import factor_arrows
 
     cases = (((0.0, -0.3, 0.0), (0.0, -0.8)), ((0.1, 0.0, 0.0), (0.8, 0.0)))
     for goal, tip in cases + (((0.0, 0.0, 0.2), (0.0, 0.0)),):  # above: no arrow

@@ -5,7 +5,8 @@ import json
 
 import pytest
 
-from acder_lite import cli, precision
+from acder_lite.cli import main as cli
+from acder_lite import precision
 from acder_lite.config import Config
 
 
@@ -87,7 +88,7 @@ def test_the_chapters_first_cell_says_which_precision_trains(
     monkeypatch, capsys, native, want
 ):
     # the chapters train with update_dtype="auto"; `budgets` prints what it chose here
-    from acder_lite.book_utils import budgets
+    from acder_lite.book.utils import budgets
 
     monkeypatch.setattr(precision, "native_bf16", lambda: (native, "probe"))
     assert budgets(True, cycles=(40, 8)) == {"cycles": 8}

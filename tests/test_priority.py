@@ -1,10 +1,10 @@
 """Prioritised replay (PER) and energy-based prioritisation (EBP):
-acder_lite/priority.py."""
+acder_lite/algo/priority.py."""
 
 import numpy as np
 import pytest
 
-from acder_lite.priority import (
+from acder_lite.algo.priority import (
     EnergyPrioritizer,
     PrioritizedReplay,
     SumTree,

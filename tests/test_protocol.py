@@ -1,4 +1,5 @@
-"""Protocol v2 (DESIGN.md): the task presets, Xavier init, Baselines' clip, the stop
+"""Protocol v2 (book/departures.md, "The protocol"): the task presets, Xavier init,
+Baselines' clip, the stop
 rule, and protocol-v1 configs read back as the runs they were."""
 
 import csv
@@ -10,9 +11,10 @@ import os
 import pytest
 import torch
 
-from acder_lite.config import METHODS, TASK_PRESETS, Config, upgrade_legacy
-from acder_lite.core import mlp
-from acder_lite.trainer import Trainer, target_clip
+from acder_lite.config import METHODS, TASK_PRESETS, Config
+from acder_lite.legacy import upgrade_legacy
+from acder_lite.algo.core import mlp
+from acder_lite.train.trainer import Trainer, target_clip
 
 from conftest import ROOT, networks, tiny_config
 
@@ -70,7 +72,7 @@ def test_protocol_v2_defaults_per_task(env, epochs, cycles, threshold):
 def test_gamma_is_baselines_one_minus_one_over_the_horizon(env):
     """Baselines' experiment/config.py: gamma = 1 - 1/T, T the env's max_episode_steps;
     the critic's target clip [-1/(1-gamma), 0] follows (-50 at T = 50, -100 at 100)."""
-    from acder_lite.envs import horizon
+    from acder_lite.envs.fetch import horizon
 
     T = horizon(env)  # the registered time limit
     cfg = Config(env=env, method="her").resolve()
@@ -151,7 +153,7 @@ def test_the_critic_sees_the_action_over_max_u_and_the_actor_scales_tanh():
     max_u = 2 (every Fetch task has max_u = 1, where u / max_u = u * max_u): the
     critic's value at u equals its network's at u / 2, and the actor's action is
     twice its network's tanh output."""
-    from acder_lite.core import Actor, Critic
+    from acder_lite.algo.core import Actor, Critic
 
     torch.manual_seed(0)
     x, u = torch.randn(5, 3), torch.rand(5, 2) * 4 - 2
@@ -352,10 +354,11 @@ def test_every_committed_protocol_v1_config_reads_back():
 
 
 def test_baselines_ddpg_defaults_reach_the_networks_and_normalisers():
-    """DESIGN.md, protocol v2: Baselines' defaults hold unless a row says otherwise:
-    polyak 0.95 (the target moves 5% of the way to the main network a cycle), action
-    L2 1.0, observations clipped to 200 and normalised with eps 0.01, clipped to 5,
-    Adam lr 1e-3, noise 0.2, random actions 0.3, k = 4. Checked where they act: a
+    """book/departures.md, "The protocol" (v2): Baselines' defaults hold unless a row
+    says otherwise: polyak 0.95 (the target moves 5% of the way to the main network a
+    cycle), action L2 1.0, observations clipped to 200 and normalised with eps 0.01,
+    clipped to 5, Adam lr 1e-3, noise 0.2, random actions 0.3, k = 4. Checked where
+    they act: a
     trained run's normalisers clip at 5, its targets take a 0.05 step."""
     cfg = Config().resolve()
     assert (cfg.polyak, cfg.action_l2, cfg.clip_obs) == (0.95, 1.0, 200.0)

@@ -1,4 +1,4 @@
-"""Chapter 1's random arm (acder_lite.random_play): what a random policy's episodes
+"""Chapter 1's random arm (acder_lite.book.random_play): what a random policy's episodes
 count, drawn from the caller's generator, and how the tasks' success rates are
 worded."""
 
@@ -10,10 +10,10 @@ def test_random_episode_stats_draws_from_the_callers_generator():
     """Chapter 1's random-policy episodes: `workers` envs seeded from `seed`, actions
     drawn from the generator passed in, which it advances (the chapter measures its
     tasks in turn from one generator)."""
-    from acder_lite import envs as E
-    from acder_lite.random_play import EPISODE_STATS, episode_stats
-    from acder_lite.random_play import random_episode_stats, random_policy
-    from acder_lite.rollout import run_episodes
+    from acder_lite.envs import fetch as E
+    from acder_lite.book.random_play import EPISODE_STATS, episode_stats
+    from acder_lite.book.random_play import random_episode_stats, random_policy
+    from acder_lite.train.rollout import run_episodes
 
     rng = np.random.default_rng(0)
     first = random_episode_stats("FetchReach-v4", 5, rng, workers=2)
@@ -38,7 +38,7 @@ def test_random_episode_stats_draws_from_the_callers_generator():
 
 
 def test_success_rank_ties_rates_that_print_alike():
-    from acder_lite.random_play import success_rank
+    from acder_lite.book.random_play import success_rank
 
     # 2.0% and 2.00004% print alike: a tie, though push > reach as floats
     assert success_rank(0.0200004, 0.02) == (
@@ -50,8 +50,8 @@ def test_success_rank_ties_rates_that_print_alike():
 
 def test_episode_stats_on_hand_made_episodes():
     """Chapter 1's counts: solved at the reset, earned, near at some step, moved."""
-    from acder_lite import envs as E
-    from acder_lite.random_play import EPISODE_STATS, episode_stats
+    from acder_lite.envs import fetch as E
+    from acder_lite.book.random_play import EPISODE_STATS, episode_stats
 
     env = E.make_env("FetchPush-v4", seed=0)
     g = np.zeros((3, 2, 3))
@@ -72,7 +72,7 @@ def test_episode_stats_on_hand_made_episodes():
 def test_random_policy_draws_each_entry_uniform_in_minus_one_to_one():
     """The random arm's actions are `rng.uniform(-1, 1)` row by row: the whole action
     box, negative entries too, not only its positive half."""
-    from acder_lite.random_play import random_policy
+    from acder_lite.book.random_play import random_policy
 
     u = random_policy(np.random.default_rng(7))(np.zeros((200, 10)), None)
     np.testing.assert_array_equal(
@@ -82,7 +82,7 @@ def test_random_policy_draws_each_entry_uniform_in_minus_one_to_one():
 
 
 def test_luck_quantifier_says_all_when_no_object_success_was_earned():
-    from acder_lite.random_play import luck_quantifier
+    from acder_lite.book.random_play import luck_quantifier
 
     assert luck_quantifier(25, 0) == "all"
     assert luck_quantifier(25, 12) == "most"  # 13 of 25 were luck

@@ -1,4 +1,4 @@
-"""Table I's statistic (acder_lite.report) on synthetic curves with
+"""Table I's statistic (acder_lite.stats.report) on synthetic curves with
 hand-computed answers."""
 
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from acder_lite import report as R
+from acder_lite.stats import report as R
 
 from conftest import push_cell
 
@@ -322,7 +322,7 @@ def test_the_rule_waits_for_every_planned_seed():
 def test_paper_epochs_and_reachs_whole_epochs():
     """Table I's Reach numbers in epochs of 400 (two are not whole, which a mean
     curve at a 100% threshold cannot give) and of Reach's own 80 (all whole)."""
-    from acder_lite.report import paper_epochs
+    from acder_lite.stats.report import paper_epochs
 
     assert paper_epochs("FetchReach-v4") == pytest.approx(
         {"her": 5.6, "her-icm": 6.0, "her-per": 3.6, "acder": 1.0}

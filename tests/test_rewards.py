@@ -6,13 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from acder_lite.rewards import (
+from acder_lite.algo.rewards import (
     goal_oriented_factor,
     goal_oriented_reward,
     intrinsic_reward,
     shaped_reward,
 )
-from acder_lite.start_states import novel_start_ratio
+from acder_lite.algo.start_states import novel_start_ratio
 
 
 def test_eq4_intrinsic_reward_below_at_and_above_the_clip():
@@ -40,7 +40,10 @@ def test_eq4_intrinsic_reward_below_at_and_above_the_clip():
         ([-2.0, 0.0, 0.0], 1.5),  # away from it: angle pi
         ([0.0, 3.0, 0.0], 1.25),  # perpendicular: pi/2
         ([1.0, 1.0, 0.0], 1.125),  # 45 degrees: (pi/4)/(2 pi) + 1
-        ([0.0, 0.0, 0.0], 1.25),  # no direction: pi/2 by convention (DESIGN.md)
+        (
+            [0.0, 0.0, 0.0],
+            1.25,
+        ),  # no direction: pi/2 by convention (book/departures.md, departure 11)
     ],
 )
 def test_eq6_goal_oriented_factor(action, expected):
@@ -138,7 +141,7 @@ def test_eq4_reward_and_eq8_loss_measure_the_same_error():
     must fail here rather than split S-ICM's loss from the reward it ranks by."""
     import torch
 
-    from acder_lite.curiosity import SICM
+    from acder_lite.algo.curiosity import SICM
 
     torch.manual_seed(0)
     s, a, s2 = torch.randn(64, 13), torch.randn(64, 4), torch.randn(64, 13)

@@ -11,10 +11,10 @@ import os
 import numpy as np
 import pytest
 
-from acder_lite import envs as E
+from acder_lite.envs import fetch as E
 from acder_lite.config import ConfigError
-from acder_lite.perturb import KNOBS, nominal, parse_perturb
-from acder_lite.robust import (
+from acder_lite.deploy.perturb import KNOBS, nominal, parse_perturb
+from acder_lite.deploy.robust import (
     Bench,
     bench_policies,
     load_policy,
@@ -28,7 +28,7 @@ from acder_lite.robust import (
     reading,
     readings,
 )
-from acder_lite.stored_bench import compare_stored
+from acder_lite.deploy.stored_bench import compare_stored
 
 from test_cli import one_line_error
 
@@ -276,10 +276,10 @@ def reach_policy(tmp_path_factory):
     run)."""
     import torch
 
-    from acder_lite.core import Actor
+    from acder_lite.algo.core import Actor
     from acder_lite.io import save_torch
-    from acder_lite.normalizer import Normalizer
-    from acder_lite.rollout import Policy
+    from acder_lite.algo.normalizer import Normalizer
+    from acder_lite.train.rollout import Policy
 
     torch.manual_seed(0)
     pol = Policy(Actor(13, 4, 16, 2), Normalizer(10), Normalizer(3), 200.0)
@@ -440,10 +440,10 @@ def controller_policy(tmp_path_factory):
     multiplies by 10."""
     import torch
 
-    from acder_lite.core import Actor
+    from acder_lite.algo.core import Actor
     from acder_lite.io import save_torch
-    from acder_lite.normalizer import Normalizer
-    from acder_lite.rollout import Policy
+    from acder_lite.algo.normalizer import Normalizer
+    from acder_lite.train.rollout import Policy
 
     actor = Actor(13, 4, 6, 2)
     first, second, last = (m for m in actor.net if isinstance(m, torch.nn.Linear))
@@ -515,7 +515,7 @@ def test_bench_policies_benches_every_trained_column(controller_policy):
 def test_success_needs_every_block_within_the_tolerance():
     """Two blocks (6-D goals) at 5 cm: 3 cm and 4 cm off succeed; one block on its
     target and the other 6 cm off does not; one block (3-D goals): strictly within."""
-    from acder_lite.robust import success
+    from acder_lite.deploy.robust import success
 
     g = np.zeros((3, 6))
     ag = np.array(

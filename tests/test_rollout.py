@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import torch
 
-from acder_lite.rollout import StepPool
-from acder_lite.trainer import Trainer
+from acder_lite.train.rollout import StepPool
+from acder_lite.train.trainer import Trainer
 from conftest import assert_same_run, tiny_config
 
 
@@ -112,7 +112,7 @@ def test_split_update_follows_threads():
 
 
 def test_bench_counts_the_flops_of_both_loss_threads():
-    from acder_lite.bench import update_flops
+    from acder_lite.cli.bench import update_flops
 
     flops = {}
     for threads in (1, 2):
@@ -126,7 +126,7 @@ def test_bench_counts_the_flops_of_both_loss_threads():
 def test_bench_matmul_rate_is_measured_in_the_updates_precision(monkeypatch):
     """A bfloat16 update is held to the bfloat16 matmul rate, not float32's (on a CPU
     with AMX the two differ several times, and share_of_limit read above 1)."""
-    from acder_lite import bench
+    from acder_lite.cli import bench
 
     seen = []
     mm = torch.mm
@@ -147,8 +147,8 @@ def test_run_episodes_records_what_the_envs_did():
     env's reward of the last achieved goal (0 within 5 cm); an env given a stored start
     is marked novel and begins from that state's observation; every stored state
     restores the observation stored beside it."""
-    from acder_lite import envs as E
-    from acder_lite.rollout import run_episodes
+    from acder_lite.envs import fetch as E
+    from acder_lite.train.rollout import run_episodes
 
     envs = [E.make_env("FetchPush-v4", seed=s) for s in (0, 1, 2)]
     rng = np.random.default_rng(0)
@@ -175,8 +175,8 @@ def test_run_episodes_success_is_the_last_steps(monkeypatch):
     every step but the last reads as failed, one that succeeds at the last step only
     as a success. The verdicts are scripted: an env succeeds at a step whose action's
     first component is above 0."""
-    from acder_lite import envs as E
-    from acder_lite.rollout import run_episodes
+    from acder_lite.envs import fetch as E
+    from acder_lite.train.rollout import run_episodes
 
     step = E.step
     monkeypatch.setattr(E, "step", lambda env, a: (step(env, a)[0], bool(a[0] > 0)))
@@ -196,8 +196,8 @@ def test_run_episodes_asks_for_the_starts_in_env_order(threads):
     """`starts` draws from the trainer's one random stream (`Trainer._start`), so env
     i must get the i-th draw, with or without a StepPool: the draws come in env order
     0, 1, 2."""
-    from acder_lite import envs as E
-    from acder_lite.rollout import run_episodes
+    from acder_lite.envs import fetch as E
+    from acder_lite.train.rollout import run_episodes
 
     envs = [E.make_env("FetchReach-v4", seed=s) for s in range(3)]
     asked = []

@@ -18,8 +18,8 @@ import torch
 
 from acder_lite import io as aio
 from acder_lite.io import CheckpointError, load_torch
-from acder_lite.rollout import Policy
-from acder_lite.trainer import Trainer
+from acder_lite.train.rollout import Policy
+from acder_lite.train.trainer import Trainer
 from conftest import ROOT, rows_of, tiny_config
 from conftest import listening as _listening
 
@@ -448,7 +448,7 @@ def test_only_the_named_globals_are_needed(fresh):
 
 
 def test_diagnose_reads_a_fresh_checkpoint(fresh):
-    from acder_lite import diagnose as D
+    from acder_lite.cli import diagnose as D
 
     d = D.diagnose(fresh["acder"], batches=1)
     assert d["method"] == "acder" and "curiosity" in d
@@ -460,7 +460,7 @@ def test_diagnose_reads_a_fresh_checkpoint(fresh):
 def test_meshcat_listens_on_localhost_only():
     import meshcat  # noqa: F401  (pinned in requirements.txt: missing is a failure)
 
-    from acder_lite import viz
+    from acder_lite.book import viz
 
     vis = viz.new_visualizer()  # a server that cannot start is a failure, not a skip
     try:
@@ -567,13 +567,13 @@ def test_an_exported_torchscript_file_is_named_as_one(tmp_path, cli):
     """export's TorchScript file given where a policy.pt is read (eval, robust, export,
     --resume's checkpoint.pt): one line saying what it is and what is allowed, not
     'truncated or not a checkpoint'."""
-    from acder_lite.export import export_torchscript
+    from acder_lite.deploy.export import export_torchscript
 
     ts = tmp_path / "push.ts"
     export_torchscript(_policy(), str(ts), REACH)
     with pytest.raises(CheckpointError, match="TorchScript file written by export"):
         load_torch(str(ts))
-    assert not aio._is_torchscript(REACH)  # torch.save's archive is not one
+    assert not aio.is_torchscript(REACH)  # torch.save's archive is not one
     want = ["'" + str(ts) + "'", "TorchScript file written by export", "policy.pt"]
     one_line(cli("eval", "--checkpoint", str(ts), "--episodes", "1"), *want)
     one_line(cli("robust", str(ts)), *want)

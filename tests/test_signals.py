@@ -145,7 +145,7 @@ def test_the_first_signal_held_back_is_delivered_first(handlers):
 def test_run_files_a_failed_write_leaves_the_previous_file_whole(tmp_path):
     """A config.json or policy.pt whose write fails part way (a value json or pickle
     cannot take) leaves the one written before as it was, not a truncated file."""
-    from acder_lite.runfiles import RunFiles
+    from acder_lite.runs.runfiles import RunFiles
 
     rf = RunFiles(str(tmp_path))
     rf.write_config({"env": "FetchReach-v4"}, 0, "python -m acder_lite train", 0)

@@ -1,7 +1,7 @@
 import numpy as np
 
-from acder_lite.buffer import EpisodeBuffer
-from acder_lite.start_states import StartStateSelector, select_candidate
+from acder_lite.algo.buffer import EpisodeBuffer
+from acder_lite.algo.start_states import StartStateSelector, select_candidate
 
 
 def _buffer():

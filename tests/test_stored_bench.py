@@ -1,9 +1,10 @@
-"""A live bench against one stored by `robust --json` (acder_lite.stored_bench), on
-hand-made benches: a flipped trial is found, a shorter bench is compared on its first
-trials but for its noise rows, other settings are refused, and the book's table.
+"""A live bench against one stored by `robust --json` (acder_lite.deploy.stored_bench),
+on hand-made benches: a flipped trial is found, a shorter bench is compared on its
+first trials but for its noise rows, other settings are refused, and the book's
+table.
 The command's own stored bench against run_bench: test_robust.py."""
 
-from acder_lite.stored_bench import STORED_HEADER, compare_stored, stored_rows
+from acder_lite.deploy.stored_bench import STORED_HEADER, compare_stored, stored_rows
 
 
 def _hand_bench(trials: int, rows: dict, **settings) -> dict:
@@ -133,7 +134,7 @@ def test_check_stored_reads_each_simplified_runs_robust_json(tmp_path):
     a task without the folder or the file, or without a live bench, is said to be."""
     import json
 
-    from acder_lite.stored_bench import check_stored, scope_sentence
+    from acder_lite.deploy.stored_bench import check_stored, scope_sentence
 
     R, P, PP = "FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4"
     (tmp_path / "push").mkdir()

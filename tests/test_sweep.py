@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from acder_lite import sweep as S
+from acder_lite.cli import sweep as S
 from acder_lite.precision import usable_cpus
-from acder_lite.plan import PlanError, option_values, plan, read_plan
+from acder_lite.runs.plan import PlanError, option_values, plan, read_plan
 from conftest import stop_tree
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -131,7 +131,7 @@ def test_dry_run(grid, capsys):
         ["run", "FetchReach-v4/her/seed2"],
     ] + [["run", f"FetchReach-v4/her-per/seed{k}"] for k in range(3)]
     assert "4 to run, 1 to resume, 0 to copy, 1 to skip" in out[-2]
-    assert out[-1].startswith("sweep: time left: ")  # acder_lite.grid_time
+    assert out[-1].startswith("sweep: time left: ")  # acder_lite.runs.grid_time
     assert not (
         grid / "FetchReach-v4" / "her" / "seed2"
     ).exists()  # a dry run creates nothing
@@ -330,7 +330,7 @@ def test_address_that_does_not_answer(tmp_path, capsys):
 
 def test_join_problem_says_what_to_set(monkeypatch):
     """Each way a join fails gets its own line, with what to do."""
-    from acder_lite.cluster import join_problem
+    from acder_lite.cli.cluster import join_problem
 
     class AuthenticationError(Exception):  # Ray's, by name
         pass
@@ -668,7 +668,7 @@ def test_bad_plan(tmp_path, capsys, text, msg):
 def test_table_plan_with_a_top_level_typo(tmp_path):
     """`table --plan` reads the plan as the sweep does: a [default] table (for
     [defaults]) is an error naming it, not seed counts without it."""
-    from acder_lite import table
+    from acder_lite.runs import table
     from acder_lite.config import ConfigError
 
     path = tmp_path / "plan.toml"
@@ -1147,7 +1147,8 @@ def test_same_as_copies_a_finished_run_with_the_cells_config(tmp_path, capsys):
         config["config"] == source["config"] and config["command"] == source["command"]
     )
     assert config["same_as"]["run"] == "../../../../exp/FetchPush-v4/sicm-raw/seed0"
-    from acder_lite import findings, runs
+    from acder_lite.book import findings
+    from acder_lite.runs import read as runs
 
     copied = runs.read_run(run)
     assert copied["same_as"] == str(exp / "seed0") and copied["seed"] == 0
@@ -1189,7 +1190,7 @@ def test_same_as_refuses_a_run_with_another_config(tmp_path, capsys, extra, argv
 def test_same_as_threads_do_not_count(tmp_path):
     """Threads, the split update and parallel stepping leave the numbers as they are
     (tests/test_rollout.py): a run at --threads 2 is the cell's at --threads 1."""
-    from acder_lite import same_as
+    from acder_lite.runs import same_as
     from acder_lite.config import Config
 
     run = finished_run(
@@ -1334,7 +1335,7 @@ def test_differences_name_every_field_but_the_speed_only_ones():
     config lacks read as '<absent>' there, in either direction; the threads, the split
     update and the parallel stepping are speed only (NEUTRAL_FIELDS), the update's
     precision is not."""
-    from acder_lite import same_as
+    from acder_lite.runs import same_as
     from acder_lite.config import Config
 
     ours = Config(env="FetchPush-v4", method="her", seed=0).resolve().to_dict()

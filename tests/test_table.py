@@ -1,4 +1,5 @@
-"""Reading run folders (acder_lite.runs) and printing Table I (acder_lite.table),
+"""Reading run folders (acder_lite.runs.read) and printing Table I
+(acder_lite.runs.table),
 on synthetic runs."""
 
 import argparse
@@ -9,7 +10,9 @@ import subprocess
 
 import pytest
 
-from acder_lite import cli, report as RE, runs as RU, table as T
+from acder_lite.cli import main as cli
+from acder_lite.stats import report as RE
+from acder_lite.runs import read as RU, table as T
 from acder_lite.config import TASK_PRESETS
 
 from conftest import curve_cell, push_cell, run_cli
@@ -513,7 +516,7 @@ def test_interval_bound_that_may_still_cross_says_not_yet():
 
 def test_finished_run_skips_a_run_still_training(tmp_path):
     """policy.pt is rewritten at every epoch end: only a folder with done.json does."""
-    from acder_lite.runs import finished_run
+    from acder_lite.runs.read import finished_run
 
     for name, files in (("live", ["policy.pt"]), ("done", ["policy.pt", "done.json"])):
         (tmp_path / name).mkdir()
@@ -745,7 +748,7 @@ def test_html_caption_and_line_breaks():
 def test_protocol_rows_follow_the_presets():
     # protocol v2: Baselines' Reach epochs of 10 cycles, 20 test episodes per worker,
     # the paper's budgets (25 / 50 / 100 epochs) and Table I's thresholds
-    from acder_lite.table import PROTOCOL_HEADER, protocol_rows
+    from acder_lite.runs.table import PROTOCOL_HEADER, protocol_rows
 
     header, rows = protocol_rows()
     assert header == PROTOCOL_HEADER and len(header) == len(rows[0])

@@ -1,13 +1,15 @@
 import os
 
 import numpy as np
+import torch
 import pytest
 
-from acder_lite.config import METHODS
-from acder_lite.rewards import goal_oriented_factor, shaped_reward
-from acder_lite.trainer import Trainer, target_clip
 
-from conftest import assert_same_run, rows_of, tiny_config
+from acder_lite.config import METHODS
+from acder_lite.algo.rewards import goal_oriented_factor, shaped_reward
+from acder_lite.train.trainer import Trainer, target_clip
+
+from conftest import assert_same_run, rewards_of, rows_of, tiny_config
 
 
 def test_same_seed_same_progress(tmp_path):
@@ -112,7 +114,7 @@ def test_checkpoint_holds_buffer_and_rng(tmp_path):
     # the values, not only the names: the streams as the run left them (the checkpoint
     # is the last thing an epoch does)
     import torch
-    from acder_lite.envs import env_rng_state
+    from acder_lite.envs.fetch import env_rng_state
 
     assert ck["rng"]["numpy"] == tr.rng.bit_generator.state
     assert torch.equal(ck["rng"]["torch"], torch.get_rng_state())
@@ -156,7 +158,7 @@ def test_ebp_on_push_and_clip_range():
     `trajectory_energy` of their achieved goals with the env's dt (0.04 s on Push: 20
     MuJoCo substeps of 2 ms) and the config's weights and clip, the energy_mean column
     is their mean, and the minibatches' episodes follow the energies' probabilities."""
-    from acder_lite.priority import trajectory_energy
+    from acder_lite.algo.priority import trajectory_energy
 
     tr = Trainer(tiny_config(method="her-ebp", env="FetchPush-v4", epochs=1))
     tr.train(False)
@@ -293,9 +295,9 @@ def test_reward_bonus_adds_its_constant_to_every_row(method):
     batch = tr.sample_batch()
     tb = tr.batch_tensors(batch)
     cur = copy.deepcopy(tr.curiosity)
-    plain = tr.rewards(batch, tb).numpy()
+    plain = rewards_of(tr, batch, tb)
     tr.curiosity, tr.cfg.reward_bonus = cur, 0.25
-    with_bonus = tr.rewards(batch, tb).numpy()
+    with_bonus = rewards_of(tr, batch, tb)
     np.testing.assert_allclose(with_bonus, plain + 0.25, rtol=0, atol=1e-6)
     if method == "her":
         assert set(np.unique(batch["r"])) == {-1.0, 0.0}
@@ -311,10 +313,9 @@ def test_baselines_clip_caps_the_critics_target_at_zero():
     assert tr.clip_return == pytest.approx((-50.0, 0.0))
     batch = tr.sample_batch()
     tb = tr.batch_tensors(batch)
-    tb["r"] = tr.rewards(batch, tb)
+    tb["r"] = torch.from_numpy(rewards_of(tr, batch, tb))
     assert float(tb["r"].max()) > 0  # curiosity still pays where r_her = 0 ...
-    from acder_lite.ddpg import compute_loss_q
-    import torch
+    from acder_lite.algo.ddpg import compute_loss_q
 
     with torch.no_grad():
         q_next = tr.agent.critic_targ(tb["x2"], tr.agent.actor_targ(tb["x2"]))
@@ -359,7 +360,7 @@ def test_no_curiosity_keeps_r_int_out_of_the_reward():
     assert tr.clip_return == pytest.approx((-50.0, 0.0))
     batch = tr.sample_batch()
     before = [p.detach().clone() for p in tr.curiosity.parameters()]
-    r = tr.rewards(batch, tr.batch_tensors(batch)).numpy()
+    r = rewards_of(tr, batch)
     # no r_int
     want, lam = shaped_reward(
         batch["r"], batch["her"], batch["o"][:, :3], batch["g"], batch["u"]
@@ -382,7 +383,7 @@ def test_goal_factor_rows_picks_the_rows_lambda_applies_to(rows):
     tr.train(False)
     batch = tr.sample_batch()
     assert batch["her"].any() and not batch["her"].all()
-    r = tr.rewards(batch, tr.batch_tensors(batch)).numpy()
+    r = rewards_of(tr, batch)
     lam = goal_oriented_factor(batch["o"][:, :3], batch["g"], batch["u"])
     if rows == "relabelled":
         lam[~batch["her"]] = 1.0
@@ -404,7 +405,7 @@ def test_goal_factor_rows_picks_the_rows_lambda_applies_to(rows):
 )
 def test_stop_reasons(tmp_path, gap, script, reason, episodes):
     import json
-    from acder_lite import runs as RU
+    from acder_lite.runs import read as RU
 
     cfg = tiny_config(
         epochs=5,
@@ -482,7 +483,7 @@ def test_the_reward_is_shaped_reward_plus_eq4_of_the_curiositys_prediction(
         r_int.astype(np.float32) if sw["curiosity_reward"] else None,
         sw["goal_factor"],
     )
-    r = tr.rewards(batch, tb).numpy()
+    r = rewards_of(tr, batch, tb)
     np.testing.assert_allclose(r, want, rtol=1e-5, atol=1e-6)
     if sw["curiosity_reward"]:
         assert (r_int > 0).all() and not np.allclose(r, batch["r"])
@@ -533,7 +534,7 @@ def test_sicm_angles_sincos_is_what_sicm_sees_and_trains_on():
     three Euler angles (11-13) as their sines and cosines, 3 columns wider; the model is
     built for that width and Eq. 4's reward is taken of it. The policy's inputs are
     unchanged."""
-    from acder_lite.observations import sincos_angles
+    from acder_lite.envs.observations import sincos_angles
 
     runs = {
         k: Trainer(tiny_config(method="acder", env="FetchPush-v4", sicm_angles=k))
@@ -552,7 +553,7 @@ def test_sicm_angles_sincos_is_what_sicm_sees_and_trains_on():
         want = np.concatenate([sincos_angles(o, tr.sicm_angles), batch["g"]], 1)
         np.testing.assert_allclose(got.numpy(), want, rtol=1e-6, atol=1e-7)
     assert np.abs(s[:, 22:28].numpy()).max() <= 1.0  # sines (22-24), cosines (25-27)
-    r = tr.rewards(batch, tb).numpy()
+    r = rewards_of(tr, batch, tb)
     assert np.isfinite(r).all() and tr.rows and np.isfinite(tr.rows[-1]["r_int_mean"])
 
 
@@ -630,11 +631,12 @@ def test_eq9_follows_the_latest_test_success(monkeypatch):
 
 
 def test_goal_factor_measures_from_the_gripper_not_the_block():
-    """Eq. 6's s^a_t is the gripper position, o[:3] (DESIGN.md), not the achieved goal
-    (on Push, the block). A minibatch set by hand on FetchPush: gripper at the origin,
-    block at x = 1, relabelled goal g^h at x = 0.5, r_her = -1 on every row, actions
-    +x and -x in turn. From the gripper the goal lies along +x: lambda = 1 and 1.5, so
-    r = -1, -1.5, ... (Eq. 5); measured from the block it lies along -x and the two
+    """Eq. 6's s^a_t is the gripper position, o[:3] (book/departures.md, departure 10),
+    not the achieved goal (on Push, the block). A minibatch set by hand on FetchPush:
+    gripper at the origin, block at x = 1, relabelled goal g^h at x = 0.5, r_her = -1
+    on every row, actions +x and -x in turn. From the gripper the goal lies along +x:
+    lambda = 1 and 1.5, so r = -1, -1.5, ... (Eq. 5); measured from the block it lies
+    along -x and the two
     swap. S-ICM's r_i stays out of the reward (acder-no-curiosity)."""
     tr = Trainer(tiny_config(method="acder-no-curiosity", env="FetchPush-v4", epochs=1))
     tr.collect()
@@ -648,17 +650,18 @@ def test_goal_factor_measures_from_the_gripper_not_the_block():
     batch["r"] = np.full(n, -1.0, np.float32)
     batch["u"] = np.zeros_like(batch["u"])
     batch["u"][:, 0] = np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
-    r = tr.rewards(batch, tr.batch_tensors(batch)).numpy()
+    r = rewards_of(tr, batch)
     np.testing.assert_allclose(r, np.where(np.arange(n) % 2 == 0, -1.0, -1.5))
 
 
 def test_normalisers_are_fitted_on_her_relabelled_clipped_samples():
     """Baselines fits the normalisers on HER-relabelled transitions of the episodes just
-    collected, clipped to clip_obs (DESIGN.md), not on the stored desired goals. Four
-    hand-made Reach episodes: o = 500 everywhere (clipped to 200), desired goal 5,
-    achieved goal 0. With future_p = 0.8 a share ~0.2 of the n*T = 200 samples keeps
-    goal 5, the rest get 0: the goal mean is ~1.0 (sd 5 * sqrt(0.16 / 200) = 0.14),
-    not 5; the observation mean is exactly 200. (`update_normalizers` is the step
+    collected, clipped to clip_obs (book/departures.md, departure 2), not on the stored
+    desired goals. Four hand-made Reach episodes: o = 500 everywhere (clipped to 200),
+    desired goal 5, achieved goal 0. With future_p = 0.8 a share ~0.2 of the n*T = 200
+    samples keeps goal 5, the rest get 0: the goal mean is ~1.0 (sd 5 * sqrt(0.16 / 200)
+    = 0.14), not 5; the observation mean is exactly 200. (`update_normalizers` is the
+    step
     `collect` takes; called here on episodes whose goals are known.)"""
     tr = Trainer(tiny_config(method="her"))
     n, T, d = 4, tr.T, tr.dims
@@ -680,7 +683,7 @@ def test_a_restarted_episode_keeps_or_resamples_its_goal(restart_goal):
     """Config.restart_goal: an episode restarted from a stored candidate pursues the
     candidate's goal with 'episode', and with 'resample' (the default) the goal its
     env's reset drew, never the stored one."""
-    from acder_lite import envs as E
+    from acder_lite.envs import fetch as E
 
     tr = Trainer(tiny_config(method="acder", restart_goal=restart_goal))
     env = tr.envs[0]
@@ -749,7 +752,7 @@ def test_config_json_names_the_commit_and_whether_the_source_had_changes(
     import subprocess
     import types
 
-    from acder_lite import runfiles
+    from acder_lite.runs import runfiles
 
     def git(head, status):
         def run(cmd, **kw):
@@ -757,17 +760,17 @@ def test_config_json_names_the_commit_and_whether_the_source_had_changes(
             return types.SimpleNamespace(stdout=out)
 
         monkeypatch.setattr(subprocess, "run", run)
-        return runfiles._git_commit()
+        return runfiles.git_commit()
 
     assert git("abc123\n", "") == "abc123"
-    assert git("abc123\n", " M acder_lite/trainer.py\n") == "abc123+dirty"
-    assert git("", " M acder_lite/trainer.py\n") == ""
+    assert git("abc123\n", " M acder_lite/train/trainer.py\n") == "abc123+dirty"
+    assert git("", " M acder_lite/train/trainer.py\n") == ""
 
     def no_git(cmd, **kw):
         raise FileNotFoundError("git")
 
     monkeypatch.setattr(subprocess, "run", no_git)
-    assert runfiles._git_commit() == ""
+    assert runfiles.git_commit() == ""
 
 
 def test_a_resumed_config_json_holds_the_new_config_and_the_first_command(tmp_path):
@@ -776,7 +779,7 @@ def test_a_resumed_config_json_holds_the_new_config_and_the_first_command(tmp_pa
     under "resumes"."""
     import json
 
-    from acder_lite.runfiles import RunFiles
+    from acder_lite.runs.runfiles import RunFiles
 
     rf = RunFiles(str(tmp_path))
     rf.write_config({"epochs": 2}, 7, "train --out run", 0)
@@ -859,7 +862,7 @@ def test_lambda_mean_sums_each_minibatchs_mean_factor():
     lam = goal_oriented_factor(batch["o"][:, :3], batch["g"], batch["u"])
     lam[~batch["her"]] = 1.0
     assert lam.max() > lam.mean() > 1.0
-    tr.rewards(batch, tr.batch_tensors(batch))
+    rewards_of(tr, batch)
     assert tr.diag["lam"] == pytest.approx(lam.mean(), rel=1e-6)
 
 
@@ -869,7 +872,7 @@ def test_q_mean_is_the_critic_at_the_test_episodes_first_states(monkeypatch):
     last steps' flags."""
     import torch
 
-    from acder_lite import trainer as trainer_module
+    from acder_lite.train import trainer as trainer_module
 
     tr = Trainer(tiny_config(env="FetchPush-v4", test_episodes=2))
     real, eps = trainer_module.run_episodes, []

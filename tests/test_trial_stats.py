@@ -1,10 +1,10 @@
-"""Success counts over trials (acder_lite.trial_stats): Wilson's interval worked by
-hand, and when two counts out of 20 are told apart. Which bench rows separate:
+"""Success counts over trials (acder_lite.stats.trial_stats): Wilson's interval worked
+by hand, and when two counts out of 20 are told apart. Which bench rows separate:
 test_robust.py."""
 
 import pytest
 
-from acder_lite.trial_stats import separating_gap, told_apart, wilson_interval
+from acder_lite.stats.trial_stats import separating_gap, told_apart, wilson_interval
 
 
 def test_wilson_interval_hand_worked():

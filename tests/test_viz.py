@@ -6,8 +6,8 @@ import re
 import numpy as np
 import pytest
 
-from acder_lite import envs as E
-from acder_lite import viz
+from acder_lite.envs import fetch as E
+from acder_lite.book import viz
 
 
 def test_scene_from_a_short_rollout(tmp_path):
@@ -52,7 +52,7 @@ def test_target_nodes_name_one_marker_per_object():
 
 def test_multistep_scene_draws_both_blocks_and_both_targets(tmp_path):
     import mujoco
-    from acder_lite import multistep as M
+    from acder_lite.envs import multistep as M
 
     env = E.make_env(M.ENV_ID, seed=1)
     rec = viz.record_rollout(env, policy=None, steps=4, seed=1, every=2)
@@ -73,18 +73,18 @@ def test_multistep_scene_draws_both_blocks_and_both_targets(tmp_path):
     m = env.model
     for i, site in enumerate(M.TARGETS):  # each in its site's colour (red, blue)
         sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site)
-        assert _material_color(html, f"/meshcat/fetch/target{i}") == viz._color(
+        assert _material_color(html, f"/meshcat/fetch/target{i}") == viz.hex_color(
             m.site_rgba[sid]
         )
     for name in M.OBJECTS:  # both blocks drawn, coloured as the XML colours them
         gid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name)
         assert gid in viz.visible_geoms(m)
-        assert _material_color(html, f"/meshcat/fetch/geom{gid}") == viz._color(
-            viz._rgba(m, gid)
+        assert _material_color(html, f"/meshcat/fetch/geom{gid}") == viz.hex_color(
+            viz.geom_rgba(m, gid)
         )
     blue = [float(x) for x in M.OBJECT1_RGBA.split()]
     gid1 = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "object1")
-    assert _material_color(html, f"/meshcat/fetch/geom{gid1}") == viz._color(blue)
+    assert _material_color(html, f"/meshcat/fetch/geom{gid1}") == viz.hex_color(blue)
 
 
 def test_record_states_takes_one_goal_or_one_per_frame():
@@ -127,7 +127,7 @@ def test_pool_scene_steps_through_the_states_with_a_marker_each(tmp_path):
 
 
 def test_show_scene_frames_the_book_path_and_labs_file_server():
-    from acder_lite.viz import show_scene
+    from acder_lite.book.viz import show_scene
 
     a, b = (
         show_scene("01_push_random", height=300).data,
@@ -149,9 +149,9 @@ def test_plot_block_paths_draws_each_block_and_target_in_its_colour():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acder_lite import multistep as M
-    from acder_lite.plots import plot_block_paths
-    from acder_lite.rollout import run_episodes
+    from acder_lite.envs import multistep as M
+    from acder_lite.book.plots import plot_block_paths
+    from acder_lite.train.rollout import run_episodes
 
     def rgb(text):
         return [float(x) for x in text.split()[:3]]
@@ -193,7 +193,7 @@ def test_plot_mean_curves_reads_the_mean_curve_and_says_its_status():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acder_lite.plots import plot_mean_curves
+    from acder_lite.book.plots import plot_mean_curves
 
     def run(seed, values, ended):
         rows = [
@@ -228,7 +228,7 @@ def test_the_band_of_a_success_rate_stays_within_0_and_1():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acder_lite.plots import plot_mean_curves
+    from acder_lite.book.plots import plot_mean_curves
 
     # seeds at 1.0, 1.0 and 0.4 at the first evaluation: mean 0.8, one std above 1
     runs = [
@@ -248,8 +248,8 @@ def test_the_band_of_a_success_rate_stays_within_0_and_1():
 
 def test_color_packs_red_green_blue_into_a_three_js_hex():
     """three.js reads 0xRRGGBB: red is 0xFF0000; 0.5 of 255 rounds to 128 = 0x80."""
-    assert viz._color([1.0, 0.0, 0.0, 1.0]) == 0xFF0000
-    assert viz._color([0.0, 0.5, 1.0]) == 0x0080FF
+    assert viz.hex_color([1.0, 0.0, 0.0, 1.0]) == 0xFF0000
+    assert viz.hex_color([0.0, 0.5, 1.0]) == 0x0080FF
 
 
 def test_scene_animates_each_frames_pose_and_goal_at_the_recordings_rate(tmp_path):

@@ -1,11 +1,11 @@
-"""Euler-angle wraps (acder_lite/wraps.py): found by hand, summarised over runs."""
+"""Euler-angle wraps (acder_lite/runs/wraps.py): found by hand, summarised over runs."""
 
 import json
 
 import numpy as np
 import pytest
 
-from acder_lite import wraps as W
+from acder_lite.runs import wraps as W
 
 
 def test_angle_wraps_by_hand():

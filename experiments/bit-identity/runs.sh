@@ -18,13 +18,16 @@ cd "$(dirname "$0")/../.."  # the checkout's root: `python -m` imports its acder
 # targets of most rows to 0 (S-ICM's untrained errors put r_int at eta = 0.8), so the
 # networks of `acder` do not see a change of the intrinsic reward; the wide clip lets them.
 for env in FetchPush-v4 FetchPushMultiStep-v0; do
-  for m in her her-icm her-per her-ebp acder acder-wide-clip; do
+  for m in her her-icm her-per her-ebp acder acder-wide-clip ddpg acder-no-curiosity \
+           acder-no-goal-factor acder-no-start-states acder-simplified; do
     [ "$env" = FetchPushMultiStep-v0 ] && [ "${m%-wide-clip}" != acder ] && continue
     d=$OUT/$env/$m
     rm -rf "$d"
     extra=()
     [ "$m" = acder-wide-clip ] && extra=(--target-clip wide)
-    nice -n 5 "$PY" -m acder_lite train --env "$env" --method "${m%-wide-clip}" --seed 3 \
+    [ "$m" = acder-simplified ] && extra=(--obs simplified)
+    method=${m%-wide-clip}; method=${method%-simplified}
+    nice -n 5 "$PY" -m acder_lite train --env "$env" --method "$method" --seed 3 \
       --out "$d" --workers 2 --cycles 2 --updates-per-cycle 3 --test-episodes 2 \
       --batch-size 32 --hidden 32 --buffer-size 5000 --stop-patience 0 --epochs 2 \
       --threads 1 --quiet "${extra[@]}" > /dev/null

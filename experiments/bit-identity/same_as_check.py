@@ -6,7 +6,7 @@ Trains RUN's own recorded command (config.json's `command`, with `--out` sent to
 temporary folder) with this checkout until its progress.csv has N rows (default 2),
 stops it, and compares those rows with RUN's, every column but `wall_s`. Prints `same`
 or the first row and column that differ (exit 1). The evidence behind a plan group's
-`same_as` (acder_lite/same_as.py): a finished run is the grid cell's run when the
+`same_as` (acder_lite/runs/same_as.py): a finished run is the grid cell's run when the
 configs agree and the code still computes the same floats.
 """
 

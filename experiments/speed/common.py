@@ -7,7 +7,7 @@ the reproduction grid's cell at that method.
 import sys
 
 from acder_lite.config import Config
-from acder_lite.trainer import Trainer
+from acder_lite.train.trainer import Trainer
 
 
 def args() -> tuple[str, int]:

@@ -40,7 +40,7 @@ import torch  # noqa: E402
 from torch._functorch.partitioners import default_partition  # noqa: E402
 from torch._inductor.custom_graph_pass import CustomPartitionerFn  # noqa: E402
 
-from acder_lite import ddpg as D  # noqa: E402
+from acder_lite.algo import ddpg as D  # noqa: E402
 from common import args, warm_trainer  # noqa: E402
 
 method, threads = args()

@@ -49,8 +49,8 @@ from torch import nn
 from torch.utils._python_dispatch import TorchDispatchMode
 from torch.utils.flop_counter import FlopCounterMode
 
-from acder_lite import ddpg as D
-from acder_lite.bench import matmul_gflops, update_flops
+from acder_lite.algo import ddpg as D
+from acder_lite.cli.bench import matmul_gflops, update_flops
 from common import args, warm_trainer
 
 method, threads = args()
@@ -277,7 +277,8 @@ def batch_of(tr):
     """What `update_step` hands `DDPG.update`: (batch tensors, PER weights or None)."""
     batch = tr.sample_batch()
     tb = tr.batch_tensors(batch)
-    tb["r"] = tr.rewards(batch, tb)
+    r, _ = tr.shaped_rewards(batch, tr.curiosity_step(batch, tb))
+    tb["r"] = torch.from_numpy(r)
     w = batch["weights"]
     return tb, None if w is None else torch.from_numpy(w)
 

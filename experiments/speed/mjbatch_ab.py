@@ -57,7 +57,7 @@ import mujoco
 import numpy as np
 
 import mjbatch
-from acder_lite.rollout import StepPool
+from acder_lite.train.rollout import StepPool
 
 N, T, SUB, THREADS = 4, 50, 20, 2
 ROT = np.array([1.0, 0.0, 1.0, 0.0])
@@ -88,7 +88,7 @@ def real_envs():
     """4 FetchPush envs as the trainer makes them (seeds 0-3), reset; None where
     gymnasium-robotics cannot make one (mujoco >= 3.12), with why."""
     try:
-        from acder_lite import envs as E
+        from acder_lite.envs import fetch as E
 
         envs = [E.make_env("FetchPush-v4", seed=i) for i in range(N)]
     except Exception as e:  # the mujoco 3.14 venv: an AssertionError, no message
@@ -263,7 +263,7 @@ def main() -> int:
         states0.append(get_state(m, d0))
 
     if envs is not None:  # the replica is the env's physics: same qpos, qvel
-        from acder_lite import envs as E
+        from acder_lite.envs import fetch as E
 
         rng = np.random.default_rng(123)
         acts = rng.uniform(-1, 1, (T, N, 4)).astype(np.float32)

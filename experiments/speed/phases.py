@@ -3,7 +3,7 @@ the update step taken apart, CPU time per phase."""
 
 import time
 import torch
-from acder_lite.ddpg import compute_loss_q, compute_loss_pi
+from acder_lite.algo.ddpg import compute_loss_q, compute_loss_pi
 from common import args, warm_trainer
 
 tr = warm_trainer(*args())
@@ -25,7 +25,9 @@ ag = tr.agent
 for _ in range(N):
     batch = t("sample_batch", tr.sample_batch)
     tb = t("batch_tensors", lambda: tr.batch_tensors(batch))
-    tb["r"] = t("rewards(+curiosity)", lambda: tr.rewards(batch, tb))
+    r_int = t("curiosity step", lambda: tr.curiosity_step(batch, tb))
+    r, _ = t("shaped rewards", lambda: tr.shaped_rewards(batch, r_int))
+    tb["r"] = torch.from_numpy(r)
     with torch.no_grad():
         t("target fwd", lambda: ag.critic_targ(tb["x2"], ag.actor_targ(tb["x2"])))
     ql, td = t(
@@ -53,6 +55,6 @@ tot = sum(v for k, v in acc.items() if k not in ("target fwd", "FULL update_step
 for k, v in acc.items():
     print(f"{k:28s} {v / N * 1e3:7.2f} ms")
 print(f"{'sum of phases':28s} {tot / N * 1e3:7.2f} ms")
-from acder_lite.bench import update_flops
+from acder_lite.cli.bench import update_flops
 
 print("gflop", update_flops(tr) / 1e9)

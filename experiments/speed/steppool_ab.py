@@ -10,8 +10,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import torch
 
-from acder_lite import envs as E
-from acder_lite.rollout import StepPool, run_episodes
+from acder_lite.envs import fetch as E
+from acder_lite.train.rollout import StepPool, run_episodes
 
 torch.set_num_threads(1)
 envs = [E.make_env("FetchPush-v4", seed=i) for i in range(4)]
