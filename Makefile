@@ -4,7 +4,7 @@ PY    := .venv/bin/python
 PIP   := .venv/bin/pip
 JOBS  ?= 2
 
-.PHONY: setup test lint unit notebooks book lab train bench clean
+.PHONY: setup test lint unit notebooks book lab train bench videos clean
 
 setup: .venv/.installed
 
@@ -17,6 +17,8 @@ setup: .venv/.installed
 # Unit tests, short learning runs and CLI errors, the browser tests (tests/test_browser.py: Debian's
 # /usr/bin/chromium, skipped with one line without it, kept on one worker by --dist loadgroup), then
 # every notebook under nbmake, all with ACDER_FAST=1 (smaller budgets, same code path).
+# tests/test_video.py renders with MuJoCo through headless EGL (MUJOCO_GL=egl), skipped with one line
+# without it; Debian: apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 (.ci/run does).
 test: setup lint
 	ACDER_FAST=1 $(PY) -m pytest -n $(JOBS) --dist loadgroup -rs -q tests
 	@if ls notebooks/*.ipynb >/dev/null 2>&1; then \
@@ -46,6 +48,11 @@ train: setup
 
 bench: setup
 	$(PY) -m acder_lite bench $(ARGS)
+
+# The book's videos of the trained policies (book/_static/videos/*.gif), rendered offline by MuJoCo
+# through headless EGL (the Debian packages of the `test` target's note): experiments/videos/.
+videos: setup
+	experiments/videos/make.sh
 
 clean:
 	rm -rf _build .pytest_cache book/apidocs

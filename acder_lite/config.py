@@ -425,19 +425,22 @@ class Config:
     so a run's weights equal the eager ones within float32 tolerance only
     (tests/test_compiled.py), not bit for bit. Off by default, and off for the
     reproduction grid, whose runs resume across code changes and must compute as they
-    started (experiments/bit-identity/). The first update compiles (about 25 s of wall
-    time here, a few seconds from inductor's on-disk cache); then an update measured
-    0.94-0.95 of eager's CPU time on one thread and a training episode about 0.95
+    started (experiments/bit-identity/). The first update compiles (tens of seconds, a
+    few from inductor's on-disk cache); then it is a little cheaper than eager
     (experiments/speed/README.md). A resumed run keeps its checkpoint's setting."""
     update_dtype: str = "auto"
-    """Precision of the actor/critic gradient step: 'auto' (bfloat16 only on a CPU with
-    native bfloat16 matmul, AVX512-BF16 or AMX; float32 elsewhere:
-    `precision.choose_update_dtype`), 'float32', or 'bfloat16' (CPU autocast: the
-    matmuls in bf16; weights, gradients, Adam and losses stay fp32). bfloat16 measured
-    2-3x faster per update with AVX512-BF16 and 17x slower without it
-    (`bench --update-dtype both`); it is a different computation: compare learning
-    curves before mixing its runs with float32 ones. Acting, evaluation and S-ICM stay
-    fp32. `resolve` replaces 'auto' by the choice; config.json records it and why."""
+    """Precision of the actor/critic gradient step: 'auto' (times the update's own
+    shapes, this run's minibatch, hidden size and layers on its threads, in both
+    precisions, about a second, and takes bfloat16 only where it measured at least 1.2x
+    faster; float32 elsewhere, and without timing on a CPU with no native bfloat16
+    matmul: `precision.choose_update_dtype`), 'float32', or 'bfloat16' (CPU autocast:
+    the matmuls in bf16; weights, gradients, Adam and losses stay fp32). Its speed
+    depends on the machine, from 2-3x faster per update to slower than float32
+    (experiments/speed/README.md; `bench --update-dtype both` measures yours); it is a
+    different computation: compare
+    learning curves before mixing its runs with float32 ones. Acting, evaluation and
+    S-ICM stay fp32. `resolve` replaces 'auto' by the choice; config.json records it
+    and why (the two timings), and a resumed run keeps it."""
     update_dtype_why: str = ""
     """Filled by `resolve()`:
     why update_dtype is what it is (recorded in config.json)."""
@@ -468,8 +471,11 @@ class Config:
 
     def resolve(self) -> "Config":
         """A validated copy with the task presets (`PRESET_FIELDS`), the method's
-        switches, and the `auto` device and update dtype filled in; `self` is left as
-        it was (the trap it avoids: a caller's Config changing under it)."""
+        switches, and the `auto` device and update dtype filled in (the dtype by timing
+        this run's update in both precisions, about a second the first time a process
+        meets its shape: `precision.choose_update_dtype`; a dtype with its why recorded,
+        as a resumed run's, is kept); `self` is left as it was (the trap it avoids: a
+        caller's Config changing under it)."""
         self.validate()
         c = copy.copy(self)
         preset = TASK_PRESETS[c.env]
@@ -485,9 +491,15 @@ class Config:
             raise ConfigError(str(e)) from None
         if c.device == "auto" or not c.device_why:
             c.device, c.device_why = device, why
+        # a recorded choice (a resumed run's config) stays: only 'auto' is measured
         if c.update_dtype == "auto" or not c.update_dtype_why:
             c.update_dtype, c.update_dtype_why = choose_update_dtype(
-                c.update_dtype, c.device
+                c.update_dtype,
+                c.device,
+                rows=c.batch_size * c.workers,
+                hidden=c.hidden,
+                layers=c.layers,
+                threads=c.torch_threads,
             )
         c.validate()
         return c

@@ -5,12 +5,14 @@ rename), and torch files read without running anything from them (`load_torch`,
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import math
 import os
 import pickle
 import re
+import socket
 import tempfile
 import warnings
 import zipfile
@@ -21,22 +23,56 @@ import torch
 from acder_lite.signals import deferred
 
 
-def atomic_write(path: str, write) -> None:
+def atomic_write(path: str, write, make_folder: bool = True) -> None:
     """Call `write(f)` on a binary file that becomes `path` only once written whole: a
     temporary file in the same folder, flushed and fsynced, then renamed over `path`
     (atomic on POSIX), so a reader sees the old file or the new one, never half of one.
     For writers outside this module (the robustness bench's tables, the exported
-    policy)."""
-    _atomic(path, write)
+    policy). WriteError if the file cannot be written (`_atomic`)."""
+    _atomic(path, write, make_folder)
 
 
-def _atomic(path: str, write) -> None:
+class WriteError(OSError):
+    """A file `atomic_write` could not write: no space left, a read-only folder, a
+    folder removed meanwhile. Its previous version (or its absence) is as it was, and
+    no temporary file is left; `filename` is the file meant, `strerror` why.
+
+    Trap: torch.save on a full disk raised RuntimeError ("unexpected pos ..."), the
+    OSError only its context: the command ended in a 40-line traceback."""
+
+    def __str__(self) -> str:
+        return (
+            f"{self.filename!r} could not be written ({self.strerror}); "
+            "its previous version is kept whole, and no partial file"
+        )
+
+
+def _os_error(e: BaseException) -> OSError | None:
+    """The OSError a failed write raised: `e` itself, or the one under the
+    RuntimeError that torch's zip writer raises over it (its context or cause)."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, OSError):
+            return e
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return None
+
+
+def _atomic(path: str, write, make_folder: bool = True) -> None:
+    """`atomic_write`. `make_folder=False`: a folder that is not there is an error, not
+    made again (a run folder removed while its run trained, `runfiles.RunFiles`)."""
     folder = os.path.dirname(os.path.abspath(path))
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(
-        prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder
-    )
+    tmp = None
     try:
+        if make_folder:
+            os.makedirs(folder, exist_ok=True)
+        remove_stale_temps(folder)
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{os.path.basename(path)}.{_TEMP_TAG}-{os.getpid()}.",
+            suffix=".tmp",
+            dir=folder,
+        )
         with deferred():  # an interrupt inside torch.save is no KeyboardInterrupt
             os.chmod(tmp, 0o644)
             with os.fdopen(fd, "wb") as f:
@@ -44,10 +80,61 @@ def _atomic(path: str, write) -> None:
                 f.flush()
                 os.fsync(f.fileno())
             os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    except BaseException as e:
+        if tmp is not None and os.path.exists(tmp):
+            try:
+                os.unlink(tmp)
+            except OSError:  # e.g. the folder went read-only meanwhile
+                pass
+        # not an interrupt, nor a value the writer refused (TypeError, ...)
+        err = _os_error(e) if isinstance(e, (OSError, RuntimeError)) else None
+        if err is None or isinstance(err, WriteError):
+            raise
+        raise WriteError(err.errno, err.strerror or str(err), path) from None
+
+
+_TEMP_TAG = hashlib.sha1(socket.gethostname().encode()).hexdigest()[:8]
+"""This machine, in the names of the temporary files `_atomic` writes
+(`.NAME.<machine>-<pid>.<random>.tmp`), so `remove_stale_temps` knows whose process
+left one."""
+
+_TEMP_NAME = re.compile(r"^\..+\.([0-9a-f]{8})-([0-9]+)\.[^.]+\.tmp$")
+
+
+def remove_stale_temps(folder: str) -> list[str]:
+    """Remove the temporary files in `folder` that a process of this machine killed
+    while it wrote (SIGKILL, a power cut: `_atomic` could not remove its own), and
+    return their names. A file of a process still running, of another machine (a
+    shared folder), or of another name is left alone. Trap: a checkpoint's temporary
+    file is as large as the checkpoint, and every kill left one more."""
+    gone = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return gone
+    for name in names:
+        m = _TEMP_NAME.match(name)
+        if not m or m.group(1) != _TEMP_TAG or _running(int(m.group(2))):
+            continue
+        try:
+            os.unlink(os.path.join(folder, name))
+            gone.append(name)
+        except OSError:  # gone meanwhile, or a folder that takes no change
+            pass
+    return gone
+
+
+def _running(pid: int) -> bool:
+    """Whether process `pid` runs on this machine (ours or another user's)."""
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True
+    return True
 
 
 RUN_FILES = ("checkpoint.pt", "policy.pt", "config.json", "progress.csv", "done.json")
@@ -145,14 +232,17 @@ def json_ready(v):
     return v
 
 
-def write_json(path: str, obj) -> None:
+def write_json(path: str, obj, make_folder: bool = True) -> None:
     _atomic(
         path,
         lambda f: f.write((json.dumps(obj, indent=2, sort_keys=False) + "\n").encode()),
+        make_folder,
     )
 
 
-def write_csv(path: str, rows: list[dict], columns: list[str]) -> None:
+def write_csv(
+    path: str, rows: list[dict], columns: list[str], make_folder: bool = True
+) -> None:
     buf = io.StringIO()
     w = csv.DictWriter(
         buf, fieldnames=columns, extrasaction="ignore", lineterminator="\n"
@@ -160,7 +250,7 @@ def write_csv(path: str, rows: list[dict], columns: list[str]) -> None:
     w.writeheader()
     for row in rows:
         w.writerow({k: _fmt(row.get(k, "")) for k in columns})
-    _atomic(path, lambda f: f.write(buf.getvalue().encode()))
+    _atomic(path, lambda f: f.write(buf.getvalue().encode()), make_folder)
 
 
 def _fmt(v):
@@ -169,8 +259,8 @@ def _fmt(v):
     return v
 
 
-def save_torch(path: str, obj) -> None:
-    _atomic(path, lambda f: torch.save(obj, f))
+def save_torch(path: str, obj, make_folder: bool = True) -> None:
+    _atomic(path, lambda f: torch.save(obj, f), make_folder)
 
 
 NUMPY_TAG = "__numpy__"

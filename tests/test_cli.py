@@ -354,7 +354,8 @@ def test_ctrl_c_in_the_first_epoch_leaves_a_run_to_start_again(cli, tmp_path):
     out = tmp_path / "run"
     cmd = [*"train --env FetchReach-v4 --epochs 1".split(), *TINY, "--out", str(out)]
     long = [*cmd, "--cycles", "500", "--eval-every-cycles", "1"]  # the later --cycles
-    code, err = _ctrl_c_once_written(long, out / "progress.csv")
+    # config.json: the run has started (progress.csv waits for the first checkpoint)
+    code, err = _ctrl_c_once_written(long, out / "config.json", settle=1.0)
     assert code == 130 and "before the first checkpoint" in err, err
     assert not (out / "checkpoint.pt").exists() and os.listdir(out) == []
     one_line_error(cli("train", "--resume", str(out)), "no checkpoint.pt", "--out")
@@ -755,6 +756,12 @@ def _fake_bench(monkeypatch, cycle_wall):
     monkeypatch.setattr(bench, "time", fake_time)
     monkeypatch.setattr(bench, "update_flops", lambda tr: 2e8)
     monkeypatch.setattr(bench, "matmul_gflops", lambda *a, **k: 100.0)
+    # what auto would pick: an update timed at 5 ms in float32, 2 ms in bfloat16
+    from acder_lite import precision
+
+    monkeypatch.setattr(precision, "native_bf16", lambda: (True, "probe"))
+    monkeypatch.setattr(precision, "time_update", lambda *shape: (5e-3, 2e-3))
+    monkeypatch.setattr(precision, "_MEASURED", {})
 
     def run(update_dtype):
         args = argparse.Namespace(
@@ -777,8 +784,14 @@ def test_bench_line_derives_the_limit_share_and_grid_cost_from_its_timings(
     GFLOP/s) on a 100 GFLOP/s matmul: 10 updates x 2 ms = 20 ms on top of simulation,
     limit 270 ms, 270 / 500 = 0.54 of training."""
     assert _fake_bench(monkeypatch, {"float32": 2.0})("float32") == 0
-    first, last = capsys.readouterr().out.strip().splitlines()
+    first, auto, last = capsys.readouterr().out.strip().splitlines()
     assert first.endswith("update_ms=4.0 update_gflop=0.20 update_share_of_matmul=0.50")
+    # the line before the last: what `--update-dtype auto` picks here, and why
+    assert auto == (
+        "auto picks update_dtype=bfloat16 here: probe; the update (512 rows, 3x256 "
+        "hidden, 1 thread) measured float32 5.00 ms, bfloat16 2.00 ms: 2.50x, at least "
+        "1.2x: bfloat16"
+    )
     assert last.split() == [
         "bench:",
         "sim_ms_per_episode=250.0",

@@ -22,8 +22,9 @@ def random_batch(n: int) -> dict:
 
 
 def agent(**kw) -> DDPG:
-    """float32 named: `auto` is bfloat16 on a CPU with AVX512-BF16 or AMX, where the
-    compiled and eager updates round differently by more than float32's tolerance."""
+    """float32 named: `auto` is bfloat16 where the update measured faster in it, and
+    there the compiled and eager updates round differently by more than float32's
+    tolerance."""
     torch.manual_seed(1)
     kw.setdefault("update_dtype", "float32")
     return DDPG(10, 4, Config(hidden=32, threads=1, **kw).resolve())

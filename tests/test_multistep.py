@@ -443,3 +443,196 @@ def test_block_distances_by_hand():
         M.block_distances(ag[:3], g[:3])
     with pytest.raises(ValueError):
         M.block_distances(ag, np.stack([g, g]))
+
+
+def test_block_shares_by_hand():
+    """Four hand-made episodes (T = 2, targets at the origin so distances are exact):
+    0 puts block 0 on its target (1 cm off) after pushing it 10 cm, block 1 stays
+    20 cm off and still; 1 starts and ends with both on target, nothing moves; 2 grazes
+    block 0 (5 mm) and pushes block 1 by 2 cm, neither on target; 3 ends block 0
+    exactly at the threshold and moves block 1 (30 cm off) exactly `MOVED` (both
+    strict: neither counts). Block 0 on target in 2 of 4, block 1 in 1; each moved
+    in 1."""
+    z = np.zeros(3)
+    x = lambda d: np.array([d, 0.0, 0.0])  # noqa: E731
+    starts_ends = [
+        ((x(0.11), x(0.20)), (x(0.01), x(0.20))),
+        ((z, x(0.02)), (z, x(0.02))),
+        ((x(0.30), x(0.30)), (x(0.305), x(0.32))),
+        ((x(0.05), x(0.3)), (x(0.05), x(0.3) + [0, M.MOVED, 0])),
+    ]
+    ag = np.array(
+        [
+            [np.r_[s0, s1], np.r_[s0, s1], np.r_[e0, e1]]
+            for (s0, s1), (e0, e1) in starts_ends
+        ]
+    )
+    g = np.zeros((4, 2, 6))
+    want = dict(
+        block0_on_target=0.5,
+        block1_on_target=0.25,
+        block0_moved=0.25,
+        block1_moved=0.25,
+    )
+    assert M.block_shares(ag, g, 0.05) == want
+    assert list(M.block_shares(ag, g[:, -1], 0.05)) == list(M.BLOCK_COLUMNS)
+    assert M.block_shares(ag, g[:, -1], 0.05) == want  # (n, 6) goals too
+    # a larger threshold puts episode 2's block 0 (30.5 cm) still off, episode 3's on
+    assert M.block_shares(ag, g, 0.06)["block0_on_target"] == 0.75
+    empty = M.block_shares(np.zeros((0, 3, 6)), np.zeros((0, 2, 6)), 0.05)
+    assert all(np.isnan(v) for v in empty.values())
+    with pytest.raises(ValueError, match="block_shares"):
+        M.block_shares(ag[:, -1], g, 0.05)
+    with pytest.raises(ValueError, match="block_shares"):
+        M.block_shares(ag, g[:3], 0.05)
+
+
+def test_any_block_on_target_by_hand():
+    g = np.zeros(6)
+    ag = np.array([[0.01, 0, 0, 1, 0, 0], [1, 0, 0, 0, 0.04, 0], [1, 0, 0, 0.05, 0, 0]])
+    np.testing.assert_array_equal(
+        M.any_block_on_target(ag, np.broadcast_to(g, ag.shape), 0.05),
+        [True, True, False],
+    )
+
+
+def test_moved_lies_between_a_graze_and_a_push():
+    """`MOVED`'s reading: a block nobody touches moves far less (float32 rounding of a
+    still arm's episode), the scripted pusher's blocks far more."""
+    envs = [E.make_env(ID, seed=s) for s in (0, 1)]
+    still = run_episodes_(envs, lambda o, g: np.zeros((len(o), 4)))
+    assert (M.block_distances(still["ag"][:, -1], still["ag"][:, 0]) < 1e-5).all()
+    pushed = run_episodes_(envs, P.scripted_pusher(envs[0].height_offset))
+    assert (
+        M.block_distances(pushed["ag"][:, -1], pushed["ag"][:, 0]) > 10 * M.MOVED
+    ).all()
+
+
+def run_episodes_(envs, act):
+    from acder_lite.train.rollout import run_episodes
+
+    return run_episodes(envs, act, M.MAX_EPISODE_STEPS)
+
+
+def test_site_positions_of_stored_states_are_the_achieved_goals():
+    """`envs.site_positions` reads the blocks from stored states without the env: the
+    same float32 numbers as the achieved goals of the episode that stored them, and the
+    env's own state is left as it was."""
+    envs = [E.make_env(ID, seed=s) for s in (5, 6)]
+    rng = np.random.default_rng(0)
+    ep = run_episodes_(envs, lambda o, g: rng.uniform(-1, 1, (len(o), 4)))
+    states = ep["state"].reshape(-1, ep["state"].shape[-1])
+    before = [E.get_state(e).copy() for e in envs]
+    pos = E.site_positions(envs[0], states, M.OBJECTS)
+    assert pos.shape == (len(states), 2, 3) and pos.dtype == np.float64
+    np.testing.assert_array_equal(
+        pos.reshape(len(states), 6).astype(np.float32), ep["ag"].reshape(-1, 6)
+    )
+    for b, e in zip(before, envs):
+        np.testing.assert_array_equal(E.get_state(e), b)
+    with pytest.raises(ValueError, match="site_positions"):
+        E.site_positions(envs[0], states[:1], ["no_such_site"])
+
+
+def test_block_columns_only_on_the_multistep_task():
+    """The per-block columns follow the method's own; FetchPush's columns are as they
+    were, column for column; the pool's column only with a start-state pool."""
+    from acder_lite.train.trainer import BASE_COLUMNS, Trainer
+    from conftest import tiny_config
+
+    acder_extra = [
+        "r_int_mean",
+        "curiosity_loss",
+        "lambda_mean",
+        "alpha",
+        "novel_start_share",
+        "pool_size",
+    ]
+    push = Trainer(tiny_config(env="FetchPush-v4", method="acder"))
+    assert push.columns == BASE_COLUMNS + acder_extra
+    assert Trainer(tiny_config(env="FetchPush-v4")).columns == BASE_COLUMNS
+    multi = Trainer(tiny_config(env=ID, method="acder"))
+    assert multi.columns == (
+        BASE_COLUMNS + acder_extra + list(M.BLOCK_COLUMNS) + [M.POOL_COLUMN]
+    )
+    her = Trainer(tiny_config(env=ID, method="her"))
+    assert her.columns == BASE_COLUMNS + list(M.BLOCK_COLUMNS)
+    no_pool = Trainer(tiny_config(env=ID, method="acder-no-start-states"))
+    assert M.POOL_COLUMN not in no_pool.columns
+
+
+def test_a_tiny_run_writes_the_block_columns(tmp_path):
+    """A seeded ACDER run on the task: progress.csv has the per-block shares in [0, 1]
+    at every evaluation (the pool's share NaN while the pool is empty); then, with a
+    hand-filled pool of the run's own stored states, half of them given goals on their
+    achieved goals and half far off, the pool's share is 1/2."""
+    import csv
+
+    from acder_lite.train.trainer import Trainer
+    from conftest import tiny_config
+
+    cfg = tiny_config(
+        env=ID, method="acder", seed=3, workers=2, epochs=2, cycles=1, test_episodes=2
+    )
+    tr = Trainer(cfg, out_dir=str(tmp_path / "run"))
+    tr.train(progress=False)
+    with open(tmp_path / "run" / "progress.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 2
+    for r in rows:
+        for k in M.BLOCK_COLUMNS:
+            assert 0.0 <= float(r[k]) <= 1.0, (k, r[k])
+        pool = float(r[M.POOL_COLUMN])
+        assert (np.isnan(pool) and int(r["pool_size"]) == 0) or 0.0 <= pool <= 1.0
+    buf = tr.buffer
+    tr.selector.pool.clear()
+    for k, (e, t) in enumerate([(0, 10), (1, 50), (2, 99), (3, 0)]):
+        ag = buf.ag[e, t + 1]
+        goal = ag.copy() if k % 2 == 0 else ag + np.float32(1.0)
+        tr.selector.pool.append(dict(state=buf.state[e, t + 1].copy(), goal=goal))
+    assert tr.pool_block_on_target() == 0.5
+
+
+def test_the_block_columns_move_no_float():
+    """Recording the block columns draws no random number and changes no training
+    float: the same seeded run with the recording switched off ends with the same
+    networks, random streams and every other column."""
+    import torch
+
+    from acder_lite.train.trainer import Trainer
+    from conftest import tiny_config
+
+    cfg = tiny_config(env=ID, method="acder", seed=4, workers=2, epochs=2, cycles=1)
+    # a pool from the start (the same in both runs), so its column is computed too
+    envs = [E.make_env(ID, seed=9)]
+    rng = np.random.default_rng(1)
+    ep = run_episodes_(envs, lambda o, g: rng.uniform(-1, 1, (1, 4)))
+    pool = [
+        dict(state=ep["state"][0, t], goal=ep["g"][0, 0], r_int=0.1)
+        for t in (0, 40, 100)
+    ]
+    runs = []
+    for record in (True, False):
+        tr = Trainer(cfg)
+        tr.multistep = record
+        tr.selector.pool.extend(pool)
+        rows = tr.train(progress=False)
+        runs.append((tr, rows))
+    (a, ra), (b, rb) = runs
+    assert set(ra[0]) - set(rb[0]) == set(M.BLOCK_COLUMNS) | {M.POOL_COLUMN}
+    assert all(0 <= r[M.POOL_COLUMN] <= 1 for r in ra)
+    for x, y in zip(ra, rb):
+        assert {k: v for k, v in x.items() if k in y and k != "wall_s"} == {
+            k: v for k, v in y.items() if k != "wall_s"
+        }
+    nets = ("actor", "critic", "actor_targ", "critic_targ")
+    for n in nets:
+        da, db = getattr(a.agent, n).state_dict(), getattr(b.agent, n).state_dict()
+        assert all(torch.equal(da[k], db[k]) for k in da), n
+    ca, cb = a.curiosity.state_dict(), b.curiosity.state_dict()
+    assert all(torch.equal(ca[k], cb[k]) for k in ca if torch.is_tensor(ca[k])), (
+        "curiosity"
+    )
+    assert a.rng.bit_generator.state == b.rng.bit_generator.state
+    for e, f in zip(a.test_envs + a.envs, b.test_envs + b.envs):
+        assert E.env_rng_state(e) == E.env_rng_state(f)

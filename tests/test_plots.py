@@ -522,3 +522,76 @@ def test_factor_arrows_point_to_the_goal_in_any_direction():
         np.testing.assert_allclose(red._dx, tip[0], atol=1e-12)
         np.testing.assert_allclose(red._dy, tip[1], atol=1e-12)
         plt.close(fig)
+
+
+def fake_cell(env, name, crossing=None, low=None, high=None, why="", **kw):
+    """A Table I cell as `report.cell_stat` leaves it (epochs), made by hand."""
+    from acder_lite.stats.report import CellStat
+
+    c = CellStat(env, name, name, 0.95, crossing=crossing, low=low, high=high, why=why)
+    for k, v in dict(dict(budget_epochs=50.0, n=3, done=3), **kw).items():
+        setattr(c, k, v)
+    return c
+
+
+def test_table_bars_ours_beside_the_papers_a_bound_open_with_an_arrow():
+    """Table I as bars (`plots.table_bars`) from a small fake table: a crossing is a
+    filled bar in Table I's unit (400 episodes an epoch) with its 95% interval, beside
+    the paper's hatched; a mean curve that did not cross within its budget is an open
+    bar to the budget with an arrow (a lower bound, its interval open above); a cell
+    still training draws its reason, not a bar."""
+    from matplotlib.text import Annotation
+
+    P, PP = "FetchPush-v4", "FetchPickAndPlace-v4"
+    inf = float("inf")
+    cells = [
+        fake_cell(P, "her", 27.0, 22.0, 28.0, paper=11600),
+        fake_cell(P, "acder", 14.0, 10.0, 16.0, paper=2200),
+        fake_cell(PP, "her", None, 61.0, inf, "not within budget", budget_epochs=100.0,
+                  paper=33600),
+        fake_cell(PP, "acder", None, why="not yet", paper=5200, unfinished=1),
+    ]  # fmt: skip
+    fig, bars = plots.table_bars(cells, methods=("her", "acder"), tasks=(P, PP))
+    assert bars[P]["her"] == dict(
+        value=10800.0, bound=False, low=8800.0, high=11200.0, paper=11600, why=""
+    )
+    assert bars[PP]["her"] == dict(
+        value=40000.0, bound=True, low=24400.0, high=None, paper=33600, why=""
+    )
+    assert bars[PP]["acder"]["value"] is None and bars[PP]["acder"]["why"] == "not yet"
+    push, pick = fig.axes[:2]
+    assert [ax.get_title(loc="left") for ax in (push, pick)] == [
+        "Push (95%)",
+        "Pick&Place (95%)",
+    ]
+
+    def bars_of(ax):  # (height, filled, hatched) of each bar
+        return sorted(
+            (round(p.get_height()), p.get_facecolor()[3] > 0 and not p.get_hatch(),
+             bool(p.get_hatch()))
+            for p in ax.patches
+        )  # fmt: skip
+
+    assert bars_of(push) == [
+        (2200, False, True), (5600, True, False), (10800, True, False),
+        (11600, False, True),
+    ]  # fmt: skip
+    # the bound: an open bar (no fill) to the budget, an arrow on top; the paper's two
+    assert bars_of(pick) == [(5200, False, True), (33600, False, True),
+                             (40000, False, False)]  # fmt: skip
+    arrows = [t for t in pick.texts if isinstance(t, Annotation)]
+    assert len(arrows) == 1 and arrows[0].xy[1] > 40000
+    assert not [t for t in push.texts if isinstance(t, Annotation)]
+    assert "not yet" in [t.get_text() for t in pick.texts]
+    # the intervals, one vertical segment each
+    spans = sorted(
+        tuple(np.round(ln.get_ydata()).tolist())
+        for ax in (push, pick)
+        for ln in ax.get_lines()
+        if len(ln.get_xdata()) == 2 and ln.get_xdata()[0] == ln.get_xdata()[1]
+    )
+    assert spans == [(4000, 6400), (8800, 11200), (24400, 40000)]
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "the paper's" in legend and "95% bootstrap interval" in legend
+    assert "Table I's unit" in push.get_ylabel() and pick.get_ylabel() == ""
+    plt.close(fig)

@@ -172,6 +172,64 @@ def test_train_argv(grid):
     assert argv[argv.index("--resume") + 1] == str(resume.out) and "--out" not in argv
 
 
+def test_auto_precision_is_decided_once_per_task(tmp_path, monkeypatch):
+    """`--update-dtype auto` in a sweep: the driver decides once per task, before the
+    cells start (`decide_update_dtypes`), and every new cell of the task gets that
+    precision; a resumed cell keeps its checkpoint's; a plan's float32, or one in
+    --train-args, is not decided."""
+    from acder_lite import precision
+
+    decisions = []
+
+    def choose(requested, device="cpu", **shape):
+        if requested != "auto":
+            return requested, "asked for"
+        decisions.append(shape)
+        return ("bfloat16", f"auto: decision {len(decisions)}")
+
+    monkeypatch.setattr(precision, "choose_update_dtype", choose)
+    results = tmp_path / "r"
+    touch(results / "FetchPush-v4" / "her" / "seed1", "config.json", "checkpoint.pt")
+    grid = ["--envs", "FetchReach-v4", "FetchPush-v4", "--methods", "her", "her-per"]
+    grid += ["--seeds", "0", "1", "--results", str(results)]
+    cells = plan(["FetchReach-v4", "FetchPush-v4"], ["her", "her-per"], [0, 1], results)
+    assert sum(c.action == "resume" for c in cells) == 1
+    args = parse(grid)
+    assert S.check_args(args) is None
+    decisions.clear()  # planning resolved the cells too
+    lines = S.decide_update_dtypes(cells, args)
+    assert len(decisions) == 2 and lines == [
+        "update_dtype bfloat16 for FetchReach-v4's 4 new cells (auto: decision 1)",
+        "update_dtype bfloat16 for FetchPush-v4's 3 new cells (auto: decision 2)",
+    ]
+    for c in cells:
+        resume = c.action == "resume"
+        argv = S.train_argv(c, args, resume=resume)
+        if resume:  # its precision is its checkpoint's
+            assert "--update-dtype" not in argv
+        else:
+            assert argv.count("--update-dtype") == 1
+            assert argv[argv.index("--update-dtype") + 1] == "bfloat16"
+    # a task decided stays decided (a cell started later, after a replan)
+    assert S.decide_update_dtypes(cells, args) == [] and len(decisions) == 2
+    # the precision set by --train-args, or by the plan: nothing decided
+    args = parse([*grid, "--train-args=--update-dtype float32"])
+    assert S.check_args(args) is None and S.decide_update_dtypes(cells, args) == []
+    argv = S.train_argv(cells[0], args, resume=False)
+    assert argv.count("--update-dtype") == 1 and "float32" in argv
+    (tmp_path / "plan.toml").write_text(
+        '[defaults]\nconfig = { update_dtype = "float32" }\n\n[[group]]\n'
+        'envs = ["FetchReach-v4"]\nmethods = ["her"]\nseeds = [0, 1]\n'
+    )
+    args = parse(["--plan", str(tmp_path / "plan.toml")])
+    cells = read_plan(tmp_path / "plan.toml")
+    decisions.clear()  # reading the plan resolved its pairs
+    assert S.check_args(args) is None and S.decide_update_dtypes(cells, args) == []
+    argv = S.train_argv(cells[0], args, resume=False)
+    assert argv[argv.index("--update-dtype") + 1] == "float32"
+    assert argv.count("--update-dtype") == 1 and decisions == []
+
+
 @pytest.mark.parametrize(
     "argv, msg",
     [
@@ -763,7 +821,7 @@ def test_the_committed_plan_reads():
     assert [
         count("FetchPickAndPlace-v4", m)
         for m in ("her", "acder", "her-ebp", "acder-no-start-states")
-    ] == [3, 3, 2, 2]
+    ] == [5, 5, 2, 2]
     assert all(c.options.get("update_dtype") == "float32" for c in cells)
 
 

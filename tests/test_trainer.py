@@ -43,7 +43,7 @@ def test_bfloat16_same_seed_same_progress(tmp_path):
         rows_of(tmp_path / "b" / "progress.csv"),
     )
     assert len(a) == 2 and a == b
-    # float32 named: `auto` is bfloat16 itself on a CPU with AVX512-BF16 or AMX
+    # float32 named: `auto` is bfloat16 itself where the update measured faster in it
     Trainer(
         tiny_config(
             method="acder", env="FetchPush-v4", epochs=2, update_dtype="float32"

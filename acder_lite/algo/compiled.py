@@ -9,9 +9,9 @@ reductions), so the floats move by rounding only (the fused ops sum in another o
 
 Trap: inductor's default (min-cut) partitioner makes the actor's loss save ReLU's masks
 as bool tensors (through the frozen critic the backward needs no activation but the
-mask), and inductor's vectorised bool store measured 17x slower than eager's `x <= 0` on
-this machine's AVX2 EPYC: the compiled update was then 1.35x slower than eager
-(experiments/speed/compile_ab.py). AOTAutograd's default partitioner saves the ReLU
+mask), and inductor's vectorised bool store can be far slower than eager's `x <= 0` (on
+an AVX2 CPU it made the whole compiled update slower than eager: experiments/speed/,
+`compile_ab.py` and its README). AOTAutograd's default partitioner saves the ReLU
 outputs instead and recomputes each mask inside the fused backward kernel.
 """
 

@@ -88,7 +88,7 @@ class DDPG:
             else None
         )
         # fused: one kernel per optimiser step instead of ~10 small ops per tensor
-        # (measured ~10% of an update step on this CPU).
+        # (about a tenth of an update step: experiments/speed/README.md).
         self.pi_opt = torch.optim.Adam(
             self.actor.parameters(), lr=cfg.lr_actor, fused=True
         )

@@ -13,7 +13,8 @@ no learning is needed for (chapter 9's chance level). `clip_histogram` and
 `curiosity_losses`, `error_boxes` and `rollout_errors` draw its losses, error spreads
 and one rollout's errors; `factor_arrows`, `factor_curve`, `factor_minibatch` and
 `factor_against_block` (chapter 5) and `alpha_point` (chapter 6) draw the goal-oriented
-factor and the start-state share alpha.
+factor and the start-state share alpha; `table_bars` draws Table I as bars, ours beside
+the paper's (the introduction's figure).
 
 The figures are drawn for the book's text column: `WIDTH` inches wide at `DPI`, text at
 least `FONT` points, and a legend of learning curves under its axes (`legend_below`),
@@ -701,3 +702,120 @@ def factor_against_block(axes, f: dict):
     ax.plot([1, 1.5], [1, 1.5], color="gray", ls="--")
     ax.set_xlabel(r"$\lambda_r$ scored against the block (gripper $\to$ block)")
     ax.set_ylabel(r"$\lambda_r$ (Eq. 6, used)")
+
+
+TABLE_BARS_METHODS = ("her", "her-icm", "acder")
+"""The methods `table_bars` draws by default: the paper's pair and the baseline whose
+curiosity ACDER's replaces."""
+
+
+def bar_reading(c: report.CellStat) -> dict:
+    """One cell of Table I as `table_bars` draws it, in Table I's unit (400 episodes an
+    epoch): `value`, the mean curve's first crossing, or where the mean curve ended
+    without crossing within the budget the budget itself with `bound` True (the
+    crossing, if any, lies beyond it: a lower bound); `low` and `high`, the 95%
+    bootstrap interval, None for an end beyond the budget; `paper`, Table I's number
+    (None for its '–'); `why`, the cell's reason for having no value ('not yet', 'not
+    run yet', ...), '' where it has one."""
+    out = dict(value=None, bound=False, low=None, high=None, paper=c.paper, why="")
+
+    def units(epochs):
+        finite = epochs is not None and np.isfinite(epochs)
+        return c.paper_units(epochs) if finite else None
+
+    if c.crossing is not None:
+        out["value"] = units(c.crossing)
+    elif c.why == "not within budget" and c.budget_epochs:
+        out["value"], out["bound"] = units(c.budget_epochs), True
+    else:
+        out["why"] = c.why or "no crossing"
+        return out
+    out["low"], out["high"] = units(c.low), units(c.high)
+    return out
+
+
+def table_bars(cells: list, methods=TABLE_BARS_METHODS, tasks=report.TASKS):
+    """Table I as bars, one panel per task (each on its own scale): for each of
+    `methods`, our mean-curve crossing (`bar_reading` of its `report.CellStat` in
+    `cells`) in the method's colour with its 95% bootstrap interval as an error bar,
+    beside the paper's number hatched in the same colour. A cell whose mean curve did
+    not cross within its budget is an open bar up to the budget with an arrow on top
+    (the crossing lies beyond: a lower bound), an interval reaching beyond the budget an
+    arrow above its lower end, a cell without a value its reason in grey. Returns
+    (figure, {task: {method: bar_reading}})."""
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    by = {(c.env, c.name): c for c in cells}
+    colors = colors_for(methods)
+    fig, axes = plt.subplots(
+        1, len(tasks), figsize=(WIDTH, 3.6), dpi=DPI, squeeze=False
+    )
+    readings: dict[str, dict[str, dict]] = {}
+    for ax, env in zip(axes[0], tasks):
+        here = [m for m in methods if not (m == "her-ebp" and env not in OBJECT_ENVS)]
+        readings[env] = {m: bar_reading(by[env, m]) for m in here if (env, m) in by}
+        drawn = [
+            v
+            for b in readings[env].values()
+            for v in (b["value"], b["paper"], b["high"])
+            if v is not None
+        ]
+        top = max(drawn, default=1.0)
+        head = 0.12 * top  # an arrow's length above what it marks
+        for i, m in enumerate(here):
+            b, color = readings[env].get(m), colors[m]
+            if b is None:
+                continue
+            if b["paper"] is not None:
+                ax.bar(i + 0.2, b["paper"], 0.38, facecolor="white", edgecolor=color,
+                       hatch="////", lw=1)  # fmt: skip
+            if b["value"] is None:
+                ax.text(i - 0.2, 0.02 * top, b["why"], rotation=90, ha="center",
+                        va="bottom", fontsize=FONT, color="gray")  # fmt: skip
+                continue
+            if b["bound"]:
+                ax.bar(
+                    i - 0.2, b["value"], 0.38, facecolor="none", edgecolor=color, lw=1.5
+                )
+                _arrow_up(ax, i - 0.2, b["value"], head, color)
+            else:
+                ax.bar(i - 0.2, b["value"], 0.38, color=color)
+            if b["low"] is not None:
+                hi = b["value"] if b["high"] is None else b["high"]
+                ax.plot([i - 0.2] * 2, [b["low"], hi], color="k", lw=1)
+                ax.plot([i - 0.27, i - 0.13], [b["low"]] * 2, color="k", lw=1)
+                if b["high"] is None and not b["bound"]:
+                    _arrow_up(ax, i - 0.2, b["value"], head, "k")
+                elif b["high"] is not None:
+                    ax.plot([i - 0.27, i - 0.13], [b["high"]] * 2, color="k", lw=1)
+        ax.set_xticks(range(len(here)))
+        names = [METHOD_LABELS.get(m, m).replace("DDPG+", "") for m in here]
+        ax.set_xticklabels([n.replace("+", "+\n") for n in names], fontsize=FONT)
+        ax.set_ylim(0, top + 1.6 * head)
+        ax.yaxis.set_major_formatter(lambda y, _: f"{y:,.0f}")
+        ax.tick_params(axis="y", labelsize=FONT)
+        ax.grid(axis="y", alpha=0.3)
+        ax.set_title(
+            f"{TASK_LABELS.get(env, env)} ({report.threshold(env):.0%})",
+            fontsize=10,
+            loc="left",
+        )
+    axes[0, 0].set_ylabel("episodes to the threshold\n(Table I's unit, 400 an epoch)")
+    key = [
+        Patch(color="0.45", label="ours: the mean curve's crossing"),
+        Patch(facecolor="white", edgecolor="0.45", hatch="////", label="the paper's"),
+        Patch(facecolor="none", edgecolor="0.45", lw=1.5,
+              label="ours: not within the budget (more than the bar)"),
+        Line2D([], [], color="k", lw=1, label="95% bootstrap interval"),
+    ]  # fmt: skip
+    fig.legend(handles=key, loc="lower center", ncol=2, fontsize=FONT, frameon=False)
+    fig.tight_layout(rect=(0, 0.13, 1, 1))
+    return fig, readings
+
+
+def _arrow_up(ax, x: float, y: float, length: float, color) -> None:
+    """An arrow from (x, y) up by `length`: what it marks goes on beyond."""
+    ax.annotate("", xy=(x, y + length), xytext=(x, y),
+                arrowprops=dict(arrowstyle="->", color=color, lw=1.2))  # fmt: skip

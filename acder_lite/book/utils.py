@@ -28,9 +28,11 @@ def show_source(obj, lines: tuple[int, int] | None = None):
 def budgets(fast: bool, trains: bool = True, **pairs) -> dict:
     """Pick each budget: `name=(full, fast)` -> value for this mode.
 
-    Prints the table, and the precision `Config.update_dtype="auto"` picks on this CPU:
-    the chapters train with the default, so a reader on another CPU sees why their
-    numbers differ from the rendered book's in the later digits. A chapter that trains
+    Prints the table, and the precision `Config.update_dtype="auto"` picks on this CPU
+    for a default run's update (timed in both precisions, with the two timings:
+    `precision.choose_update_dtype`; a chapter's run times its own shapes): the
+    chapters train with the default, so a reader on another CPU sees why their numbers
+    differ from the rendered book's in the later digits. A chapter that trains
     no network passes `trains=False` and gets the table only."""
     from acder_lite.precision import choose_update_dtype
 

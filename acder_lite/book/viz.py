@@ -457,7 +457,9 @@ def add_markers(
 
 def save_scene_html(vis, path: str) -> int:
     """Write the visualizer's self-contained page to `path` atomically;
-    returns its size in bytes.
+    returns its size in bytes. A page that cannot be written (a full disk, a read-only
+    folder) raises `io.WriteError`, one line naming it: the page there before is whole,
+    and no temporary file is left.
 
     Meshcat's `static_html()` inlines three.js and the scene, so the page needs no
     network.
@@ -509,9 +511,11 @@ def save_scene(vis, name: str, close: bool = True) -> str:
     """Save `vis` as book/_static/scenes/NAME.html, close its server (unless
     `close=False`), and return the absolute path."""
     path = scene_path(name)
-    save_scene_html(vis, path)
-    if close:
-        close_visualizer(vis)
+    try:
+        save_scene_html(vis, path)
+    finally:  # a page that could not be written leaves no Meshcat server running
+        if close:
+            close_visualizer(vis)
     return path
 
 

@@ -7,7 +7,8 @@ by torch's FlopCounterMode) and the machine's matmul GFLOP/s at the update's lay
 shape, in the update's precision, on the same threads. `--update-dtype both` also times
 the update step and whole training cycles in float32 and bfloat16 (interleaved, so both
 see the same machine) and prints the two ratios: the update's alone, and the end-to-end
-one per training episode that decides how long a run takes.
+one per training episode that decides how long a run takes. The line before the last
+says what `--update-dtype auto` picks for this update here, and why (its two timings).
 
 The last line also gives the limit the hardware sets and how close training comes to it:
 `limit_ms_per_episode` = simulation per episode (the W envs stepped in parallel on the
@@ -213,6 +214,19 @@ def run_bench(args) -> int:
             f"speedup={train['float32'] / train['bfloat16']:.2f} "
             "(the bench line below is float32's)"
         )
+    # what `--update-dtype auto` picks for this update here (the timing `resolve` made
+    # if auto was asked for: each shape is timed once a process)
+    from acder_lite.precision import choose_update_dtype
+
+    auto, why = choose_update_dtype(
+        "auto",
+        cfg.device,
+        rows=cfg.batch_size * W,
+        hidden=cfg.hidden,
+        layers=cfg.layers,
+        threads=cfg.torch_threads,
+    )
+    print(f"auto picks update_dtype={auto} here: {why.removeprefix('auto: ')}")
     print(
         f"bench: sim_ms_per_episode={sim_ms:.1f} train_ms_per_episode={train_ms:.1f} "
         f"ratio={train_ms / sim_ms:.2f} update_gflops={upd_gflops:.1f} "

@@ -401,6 +401,9 @@ class CellQueue:
         self.waiting = list(cells)
         self.limit, self.replan = limit, replan
         self.started: set[Path] = set()
+        self.problem = ""
+        """Why the plan could not be read the last time (`reread`; "" once it could):
+        the sweep ends with it, exit 2, if the file is still wrong at its end."""
 
     def take(self, running: int) -> list[Cell]:
         """The cells to start now, with `running` cells already running."""
@@ -416,11 +419,15 @@ class CellQueue:
             return ""
         try:
             cells = self.replan()
+            self.problem = check_folders(cells) or ""
         except PlanError as e:
-            return f"plan not read again ({e}); the queue stays as it was"
-        problem = check_folders(cells)
-        if problem:
-            return f"plan not read again ({problem}); the queue stays as it was"
+            self.problem = str(e)
+        if self.problem:
+            # the running cells go on, the cells planned before stay queued
+            return (
+                f"plan not read again ({self.problem}); the queue stays as it was "
+                "(fix the plan: it is read again when a cell ends)"
+            )
         before = {c.out for c in self.waiting}
         self.waiting = [
             c for c in cells if c.action != "skip" and c.out not in self.started
@@ -452,7 +459,8 @@ def train_argv(cell: Cell, args, resume: bool) -> list[str]:
 
     A resumed cell gets `--resume DIR` and the same options as a fresh one: train
     accepts a changed epochs/threads/stop option and refuses (exit 2, in train.log) any
-    other change.
+    other change. A fresh cell whose precision is 'auto' gets the one the sweep decided
+    for its task (`decide_update_dtypes`) as `--update-dtype`.
     """
     argv = [
         "train",
@@ -465,12 +473,68 @@ def train_argv(cell: Cell, args, resume: bool) -> list[str]:
     ]
     argv += ["--resume", str(cell.out)] if resume else ["--out", str(cell.out)]
     options = cell_options(cell, args)
+    decided = None if resume else decided_dtype(cell, args)
+    if decided:  # a resumed cell keeps the precision its checkpoint records
+        options["update_dtype"] = decided[0]
     for name, value in options.items():
         if isinstance(value, bool):  # a Config flag (compile_update): given or not
             argv += ["--" + name.replace("_", "-")] if value else []
             continue
         argv += ["--" + name.replace("_", "-"), str(value)]
     return argv + shlex.split(args.train_args or "") + ["--quiet"]
+
+
+def decide_update_dtypes(cells: list[Cell], args) -> list[str]:
+    """Decide `--update-dtype auto` once per task, in the driver, for the fresh cells
+    ('run') about to start: the grid's rule is one precision per task, and cells that
+    each timed the update for themselves, on cores their neighbours keep busy, could
+    split a task between two. The decision is `Config.resolve`'s for the task's first
+    such cell (`precision.choose_update_dtype`: the update timed in both precisions),
+    kept in `args.update_dtypes` ({env: (dtype, why)}), which `train_argv` passes to
+    each fresh cell of the task. Tasks decided already keep their decision; no decision
+    where the cell's plan fixes the precision (results/plan.toml: float32) or
+    --train-args sets it. Returns a line to say for each task decided now."""
+    decided = vars(args).setdefault("update_dtypes", {})
+    given = _train_options(shlex.split(args.train_args or ""))
+    if not isinstance(given, dict) or "update_dtype" in given:
+        return []
+    lines = []
+    for c in cells:
+        if (
+            c.action != "run"
+            or c.env in decided
+            or c.options.get("update_dtype", "auto") != "auto"
+        ):
+            continue
+        try:
+            cfg = Config(
+                **{**cell_options(c, args), **given},
+                env=c.env,
+                method=c.method,
+                seed=c.seed,
+            ).resolve()
+        except ConfigError:  # `check_cells` says so
+            continue
+        decided[c.env] = (cfg.update_dtype, cfg.update_dtype_why)
+        n = sum(
+            x.env == c.env
+            and x.action == "run"
+            and x.options.get("update_dtype", "auto") == "auto"
+            for x in cells
+        )
+        lines.append(
+            f"update_dtype {cfg.update_dtype} for {c.env}'s "
+            f"{count(n, 'new cell')} ({cfg.update_dtype_why})"
+        )
+    return lines
+
+
+def decided_dtype(cell: Cell, args) -> tuple[str, str] | None:
+    """(dtype, why) the sweep decided for `cell`'s task if the cell's precision is
+    'auto' (`decide_update_dtypes`), else None."""
+    if cell.options.get("update_dtype", "auto") != "auto":
+        return None
+    return getattr(args, "update_dtypes", {}).get(cell.env)
 
 
 IGNORED_WHEN_DONE = (*same_as.NEUTRAL_FIELDS, "update_dtype_why", "device_why")
@@ -603,6 +667,13 @@ def train_cell(cell: Cell, args) -> dict:
             f"python -m acder_lite {shlex.join(argv)}",
             flush=True,
         )
+        decided = None if state == "interrupted" else decided_dtype(cell, args)
+        if decided:  # config.json says "asked for": the measurement is here
+            print(
+                f"# sweep: --update-dtype {decided[0]}, decided once for "
+                f"{cell.env}'s new cells: {decided[1]}",
+                flush=True,
+            )
         try:
             rc = run_main(base_parser, argv)
         except KeyboardInterrupt:  # cancelled before train installed its own handler
@@ -735,6 +806,9 @@ def run(args) -> int:
         skipped = len(cells) - copied["done"] - copied["failed"]
         _say(f"nothing to run: {made}{skipped} skipped")
         return 1 if copied["failed"] else 0
+    # one precision per task, timed before Ray and the cells take the cores
+    for line in decide_update_dtypes(todo, args):
+        _say(line)
     import ray
 
     # Ray before the copies: a cluster that refuses this sweep leaves nothing written
@@ -801,6 +875,8 @@ def _drive(
 
     def start() -> None:
         while cells := queue.take(len(refs)):
+            for line in decide_update_dtypes(cells, args):  # a task a replan added
+                _say(line)
             for c in cells:
                 if c.action == "copy":  # a same_as run that finished meanwhile
                     _copy(c, args, counts)
@@ -852,6 +928,13 @@ def _drive(
         )
         + f"{skipped} skipped"
     )
+    if queue.problem:  # the plan was still wrong when the last cell ended
+        print(
+            f"error: sweep: {queue.problem}; the cells planned before it was edited "
+            "have run; fix the plan, then run the same command for the rest",
+            file=sys.stderr,
+        )
+        return 1 if counts["failed"] or counts["interrupted"] else 2
     return 1 if counts["failed"] or counts["interrupted"] else 0
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import errno
 import os
 import sys
 
@@ -19,7 +20,7 @@ from acder_lite.config import (
     ConfigError,
     field_docs,
 )
-from acder_lite.io import CheckpointError, checkpoint_config, probe_write
+from acder_lite.io import CheckpointError, WriteError, checkpoint_config, probe_write
 from acder_lite.words import plural
 
 # Config fields that are not command-line options.
@@ -349,6 +350,10 @@ def cmd_train(args) -> int:
                 file=sys.stderr,
             )
         return 130
+    except WriteError as e:  # a full disk, a read-only or removed folder
+        line = write_failed(out, trainer, e, resumed=bool(args.resume))
+        print(f"error: {line}", file=sys.stderr)
+        return 2
     last = rows[-1] if rows else {}
     print(
         f"done: {out} epochs={trainer.cycle / cfg.cycles:g} "
@@ -431,18 +436,74 @@ def _resume_budget(run: str, ckpt: dict, cfg: Config) -> str | None:
 
 
 def _drop_unsaved_run(out: str) -> list[str]:
-    """Remove the run files a new run wrote before its first checkpoint (config.json,
-    progress.csv), so the folder can be started again with the same command; a sweep
-    then sees the cell as new, not as one it cannot resume. Returns what it removed."""
+    """Remove the run files a new run wrote before its first checkpoint (config.json;
+    progress.csv waits for the checkpoint), so the folder can be started again with the
+    same command; a sweep then sees the cell as new, not as one it cannot resume.
+    Returns what it removed; a file it cannot remove (a read-only folder) stays: a
+    config.json alone does not keep `--out` from starting the run again."""
     from acder_lite.io import RUN_FILES
 
     gone = []
     for name in RUN_FILES:
         path = os.path.join(out, name)
         if os.path.isfile(path):
-            os.remove(path)
+            try:
+                os.remove(path)
+            except OSError:
+                continue
             gone.append(name)
     return gone
+
+
+_NO_ROOM = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+_READ_ONLY = (errno.EROFS, errno.EACCES, errno.EPERM)
+
+
+def write_failed(out: str, trainer, e: WriteError, resumed: bool = False) -> str:
+    """The one line of a run whose file `e` could not be written (`io.WriteError`: the
+    file's previous version is whole, no temporary file left): what happened, what of
+    the run is kept, and the command that goes on once the cause is gone.
+
+    Trap: a full disk at the first epoch's checkpoint ended in a 40-line traceback,
+    and the folder held progress.csv without a checkpoint, which both `--resume` and
+    the same `--out` refused until the user deleted files by hand. progress.csv now
+    waits for the first checkpoint, and a run with none drops its config.json, as an
+    interrupted one does (`_drop_unsaved_run`)."""
+    from acder_lite.runs import packed
+
+    name = os.path.basename(e.filename or "") or "a file"
+    if not os.path.isdir(out):
+        again = (
+            f"with --out {out} and the options of its first command"
+            if resumed
+            else "with the same command"
+        )
+        return (
+            f"train: the run folder {out!r} was removed while the run trained "
+            f"({name} could not be written); nothing of it is left to resume; start "
+            f"it again {again}"
+        )
+    at = trainer.files.checkpoint_cycle
+    fix = (
+        "there is space"
+        if e.errno in _NO_ROOM
+        else "the folder is writable"
+        if e.errno in _READ_ONLY
+        else "that is fixed"
+    )
+    what = f"{name} could not be written in {out} ({e.strerror})"
+    if at is not None or packed.has_packed(out):
+        epoch = f" (epoch {at / trainer.cfg.cycles:g})" if at is not None else ""
+        return (
+            f"train: {what}; the run is kept at its last checkpoint{epoch}, whole; "
+            f"once {fix}, continue with `python -m acder_lite train --resume {out}`"
+        )
+    gone = _drop_unsaved_run(out)
+    return (
+        f"train: {what}, and the run has no checkpoint yet; nothing to resume"
+        + (f" (removed its {', '.join(gone)})" if gone else "")
+        + f"; once {fix}, start it again with the same command"
+    )
 
 
 _TOO_LARGE = (
@@ -721,7 +782,9 @@ def run_main(make_parser, argv: list[str] | None = None) -> int:
         args = make_parser().parse_args(argv)
         args.argv = argv
         return int(args.func(args) or 0)
-    except (UsageError, ConfigError, CheckpointError) as e:
+    except (UsageError, ConfigError, CheckpointError, WriteError) as e:
+        # WriteError: an output a command could not write (a full disk, a read-only
+        # folder), where the command has no line of its own for it
         print(f"error: {e}", file=sys.stderr)
         return 2
     except PermissionError as e:  # a file or folder of the input this user cannot read

@@ -171,6 +171,30 @@ def set_state(env, state: np.ndarray, spec: int = STATE_SPEC) -> None:
     mujoco.mj_forward(env.model, env.data)
 
 
+def site_positions(
+    env, states: np.ndarray, sites, spec: int = STATE_SPEC
+) -> np.ndarray:
+    """World positions of the named `sites` in stored states (k, state_size) of `env`'s
+    model, float64 of shape (k, len(sites), 3), without the env: each state is written
+    into a scratch `MjData` and only its kinematics computed (`mj_kinematics`), so no
+    env's data, random stream or model changes. An object site's position is the
+    achieved goal the env gives in that state (`observe` after `set_state`)."""
+    m = env.model
+    ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, s) for s in sites]
+    if min(ids, default=0) < 0:
+        raise ValueError(
+            f"site_positions: {list(sites)} are not all sites of the model"
+        )
+    data = mujoco.MjData(m)
+    states = np.asarray(states, dtype=np.float64)
+    out = np.empty((len(states), len(ids), 3))
+    for k, s in enumerate(states):
+        mujoco.mj_setState(m, data, s, spec)
+        mujoco.mj_kinematics(m, data)
+        out[k] = data.site_xpos[ids]
+    return out
+
+
 def observe(env) -> dict:
     """The observation dict (observation, achieved_goal, desired_goal) of the env's
     current state, without stepping: gymnasium-robotics' `_get_obs`, the one private

@@ -175,6 +175,67 @@ def block_distances(achieved_goal, desired_goal) -> np.ndarray:
     return np.linalg.norm(diff, axis=-1)
 
 
+MOVED = 0.01
+"""Metres: a block counts as moved in an episode (`block_shares`) when its position at
+the last step is more than this from its position at step 0. Why 1 cm: a block the arm
+never touches stays where it was to float32 rounding (under 1e-7 m), so any threshold
+well above that separates touched from untouched; a graze moves a block millimetres,
+a push centimetres (of the blocks a uniformly random arm touches, about one in ten
+moves less than 1 cm and most move several cm; the scripted pusher of
+`acder_lite.book.pusher` moves each block 15 to 30 cm, its distance to its target). No
+clean gap separates the two, so 1 cm, a fifth of the 5 cm target radius, is the line:
+a block that moved less was grazed, not pushed anywhere."""
+
+BLOCK_COLUMNS = (
+    "block0_on_target",
+    "block1_on_target",
+    "block0_moved",
+    "block1_moved",
+)
+"""progress.csv's columns of this task at each evaluation (`block_shares`), so that a
+test success still at 0 (both blocks) shows whether the agent put one block on its
+target, moved the blocks, or did nothing."""
+POOL_COLUMN = "pool_block_on_target"
+"""progress.csv's column of this task for a method with a start-state pool: the share of
+its stored candidates with at least one block on its target (`any_block_on_target`)."""
+
+
+def any_block_on_target(achieved_goal, desired_goal, threshold: float) -> np.ndarray:
+    """Whether at least one block is within `threshold` of its own target (`d <
+    threshold`, the env's rule for one block), booleans of shape (...,) from 6-D goals
+    (..., 6)."""
+    return (block_distances(achieved_goal, desired_goal) < threshold).any(axis=-1)
+
+
+def block_shares(ag, g, threshold: float, moved: float = MOVED) -> dict:
+    """Per block, shares of n episodes (`BLOCK_COLUMNS`, floats; NaN for n = 0), from
+    their achieved goals `ag` (n, T+1, 6) and goals `g` (n, T, 6) or (n, 6), as
+    `train.rollout.run_episodes` returns them:
+
+    - `block{i}_on_target`: block i within `threshold` of its own target at the last
+      step (`d < threshold`, the env's rule for one block; an episode succeeds when
+      both are);
+    - `block{i}_moved`: block i's position at the last step more than `moved` (`MOVED`)
+      from its position at step 0.
+
+    Pure: reads the arrays only."""
+    ag, g = np.asarray(ag), np.asarray(g)
+    if ag.ndim != 3 or g.ndim not in (2, 3) or len(g) != len(ag):
+        raise ValueError(
+            f"block_shares: ag (n, T+1, 6) and g (n, T, 6) or (n, 6), "
+            f"got {ag.shape} and {g.shape}"
+        )
+    n = len(ag)
+    if n == 0:
+        return {k: float("nan") for k in BLOCK_COLUMNS}
+    last_g = g[:, -1] if g.ndim == 3 else g
+    on = (block_distances(ag[:, -1], last_g) < threshold).mean(axis=0)
+    mv = (block_distances(ag[:, -1], ag[:, 0]) > moved).mean(axis=0)
+    out = {f"block{i}_on_target": float(on[i]) for i in range(len(OBJECTS))}
+    out.update({f"block{i}_moved": float(mv[i]) for i in range(len(OBJECTS))})
+    return {k: out[k] for k in BLOCK_COLUMNS}
+
+
 class MujocoFetchPushMultiStepEnv(MujocoFetchEnv, EzPickle):
     """FetchPush with two blocks and two targets; see the module docstring."""
 

@@ -10,16 +10,18 @@ bit for bit, so the rebuilt buffer is the one that was packed. That is checked, 
 assumed: packing records a SHA-256 digest of the whole buffer, and unpacking refuses a
 rebuild whose digest differs (another MuJoCo build, another CPU) with one line.
 
-Measured on a FetchPush ACDER run of the grid at epoch 2 (800 episodes): 0.94 KB an
-episode instead of 37 KB, and 4.4 MB for the rest of the state, so about 17 MB at epoch
-33; rebuilding took 30-65 ms an episode on one busy core. The episodes go to chunk
-files that never change once written (`episodes-<first>-<end>.npz`; the buffer only
-appends until it wraps, which the grid's budgets never reach), so packing the same run
-again in a later session adds one chunk for the new episodes and rewrites only
-`state.pt.gz` (the networks, optimisers, normalisers, random states: everything of
-checkpoint.pt but the buffer's arrays). A repository that commits the packed folder of
-a run in flight thus grows by that run's new episodes, not by its whole buffer, each
-session.
+A packed episode is some forty times smaller than a stored one (the sizes measured on
+the grid's runs are in results/README.md). The episodes go to chunk files that never
+change once written (`episodes-<first>-<end>.npz`), so packing the same run again in a
+later session adds one chunk for the new episodes and rewrites only `state.pt.gz` (the
+networks, optimisers, normalisers, random states: everything of checkpoint.pt but the
+buffer's arrays). A repository that commits the packed folder of a run in flight thus
+grows by that run's new episodes, not by its whole buffer, each session.
+
+Trap: that holds while the buffer only appends. Once it wraps (FIFO: the 400-epoch
+Multi-step Push does at epoch 100), its slots no longer hold the episodes in order and a
+pack writes the whole buffer again as one chunk (`_chunk_name`'s `-w<total>`): correct,
+but a full buffer's size in the repository at each session's pack.
 
 `python -m acder_lite pack DIR` packs every run under DIR that has a checkpoint.pt and
 has not finished, and removes the packed folder of runs that have; `train --resume`
@@ -284,8 +286,15 @@ def later_than(run_dir: str | Path, ckpt: dict | None) -> tuple[bool, str]:
     """(whether `run_dir`'s packed checkpoint should be used rather than `ckpt`, its
     checkpoint.pt as loaded or None, and a note when a packed folder is passed over).
     The later of the two wins; a packed folder that cannot be read loses to a
-    checkpoint.pt (and raises CheckpointError where there is none)."""
+    checkpoint.pt (and raises CheckpointError where there is none). A folder without
+    its state.pt.gz (a first `pack` killed before it ended: it writes the state last)
+    holds no packed checkpoint, and the note says so."""
     if not has_packed(run_dir):
+        if ckpt is not None and (Path(run_dir) / FOLDER).is_dir():
+            return False, (
+                f"{FOLDER}/ passed over: it holds no whole packed checkpoint (no "
+                f"{STATE}: a pack stopped before its end)"
+            )
         return False, ""
     if ckpt is None:
         return True, ""
@@ -420,9 +429,11 @@ def run(args) -> int:
             print(f"failed   {d}: {e}", file=sys.stderr, flush=True)
         except OSError as e:  # a run folder that takes no file (read-only, full disk)
             failed += 1
+            # io.WriteError: the file's previous version is whole, no partial file
             print(
-                f"failed   {d}: {FOLDER}/ cannot be written ({e.strerror}); "
-                "allowed: a run folder you can write to",
+                f"failed   {d}: {FOLDER}/ cannot be written ({e.strerror}); its "
+                "packed checkpoint is as it was (or none), checkpoint.pt untouched; "
+                "allowed: a run folder you can write to, with space (then pack again)",
                 file=sys.stderr,
                 flush=True,
             )

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import re
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
@@ -188,7 +189,8 @@ def read_plan(path: str | Path) -> list[Cell]:
     path = Path(path)
     try:
         with open(path, "rb") as f:
-            doc = tomllib.load(f)
+            text = f.read().decode("utf-8")
+        doc = tomllib.loads(text)
     except OSError as e:
         raise PlanError(f"plan {str(path)!r} cannot be read: {e.strerror}") from None
     except tomllib.TOMLDecodeError as e:
@@ -216,15 +218,17 @@ def read_plan(path: str | Path) -> list[Cell]:
         )
     problem = _check_group(defaults)
     if problem:
-        raise PlanError(f"plan {str(path)!r}, [defaults]: {problem}")
+        line = _line_of(text, "defaults", 1, _key_of(problem))
+        raise PlanError(f"plan {str(path)!r}{line}, [defaults]: {problem}")
     queues: dict[str, list[Cell]] = {}
     for i, g in enumerate(groups, 1):
-        where = f"plan {str(path)!r}, group {i}"
         if not isinstance(g, dict):
-            raise PlanError(f"{where} is {g!r}, not a table; allowed: [[group]] tables")
+            raise _group_error(
+                path, text, i, f" is {g!r}, not a table; allowed: [[group]] tables"
+            )
         problem = _check_group(g)
         if problem:
-            raise PlanError(f"{where}: {problem}")
+            raise _group_error(path, text, i, f": {problem}")
         g = {
             **defaults,
             **g,
@@ -232,33 +236,42 @@ def read_plan(path: str | Path) -> list[Cell]:
         }
         unknown = sorted(set(g) - _GROUP_KEYS)
         if unknown:
-            raise PlanError(
-                f"{where}: unknown key {unknown[0]!r}; allowed: "
-                f"{', '.join(sorted(_GROUP_KEYS))}"
+            raise _group_error(
+                path,
+                text,
+                i,
+                f": unknown key {unknown[0]!r}; allowed: "
+                f"{', '.join(sorted(_GROUP_KEYS))}",
             )
         for key in ("envs", "methods", "seeds"):
             if not isinstance(g.get(key), list) or not g[key]:
-                raise PlanError(f"{where}: {key} must be a non-empty list")
+                raise _group_error(path, text, i, f": {key} must be a non-empty list")
         problem = check_names(g["envs"], g["methods"], g["seeds"])
         if problem:
-            raise PlanError(f"{where}: {problem}")
+            raise _group_error(path, text, i, f": {problem}")
         if "name" in g and len(g["methods"]) != 1:
-            raise PlanError(
-                f"{where}: name needs exactly one method, not {len(g['methods'])}"
+            raise _group_error(
+                path,
+                text,
+                i,
+                f": name needs exactly one method, not {len(g['methods'])}",
             )
         if "same_as" in g and (len(g["envs"]), len(g["methods"])) != (1, 1):
-            raise PlanError(
-                f"{where}: same_as needs exactly one env and one method, not "
-                f"{len(g['envs'])} and {len(g['methods'])}"
+            raise _group_error(
+                path,
+                text,
+                i,
+                f": same_as needs exactly one env and one method, not "
+                f"{len(g['envs'])} and {len(g['methods'])}",
             )
         options = g["config"]
         problem = check_pairs(g["envs"], g["methods"], options)
         if problem:
-            raise PlanError(f"{where}: {problem}")
+            raise _group_error(path, text, i, f": {problem}")
         root = Path(os.path.normpath(path.parent / g.get("root", ".")))
         problem = _same_as_problem(g, path.parent, root)
         if problem:
-            raise PlanError(f"{where}: {problem}")
+            raise _group_error(path, text, i, f": {problem}")
         for env, method, seed in itertools.product(g["envs"], g["methods"], g["seeds"]):
             out = run_dir(root, env, g.get("name", method), seed)
             cell = Cell(
@@ -276,7 +289,7 @@ def read_plan(path: str | Path) -> list[Cell]:
             try:
                 cell = plan_cell(cell)
             except PlanError as e:
-                raise PlanError(f"{where}: {e}") from None
+                raise _group_error(path, text, i, f": {e}") from None
             queues.setdefault(str(g.get("queue", "grid")), []).append(cell)
     names = [c.name for q in queues.values() for c in q]
     dup = next((n for n in names if names.count(n) > 1), None)
@@ -291,6 +304,55 @@ def read_plan(path: str | Path) -> list[Cell]:
         for c in batch
         if c is not None
     ]
+
+
+def _group_error(path: Path, text: str, i: int, what: str) -> PlanError:
+    """`plan 'FILE' line N, group I: WHAT` (or `... group I is ...`): N is the line of
+    the key WHAT is about (`_key_of`), else of the group's `[[group]]` header, so a
+    plan edited while a sweep runs says which line to fix."""
+    key = _key_of(what[2:]) if what.startswith(": ") else None
+    return PlanError(
+        f"plan {str(path)!r}{_line_of(text, 'group', i, key)}, group {i}{what}"
+    )
+
+
+def _key_of(problem: str) -> str | None:
+    """The group key a problem line is about: its first word when that is one
+    (`envs must be ...`, `config may not set ...`), the key it names as unknown, or the
+    list that `check_names` and `check_pairs` found a bad entry in."""
+    m = re.match(r"unknown key '([^']+)'", problem)
+    if m:
+        return m.group(1)
+    for start, key in (
+        ("unknown env", "envs"),
+        ("unknown method", "methods"),
+        ("the pair", "methods"),
+        ("the cell", None),
+    ):
+        if problem.startswith(start):
+            return key
+    word = problem.split(" ", 1)[0].strip("-:")
+    return word if word in _GROUP_KEYS else None
+
+
+def _line_of(text: str, table: str, nth: int, key: str | None) -> str:
+    """' line N': the line of `key = ...` in the `nth` `[[table]]` (or `[table]`) of
+    the TOML `text`, else of that table's header; '' where there is none (a group
+    written inline, `group = [...]`)."""
+    header = re.compile(rf"^\s*\[\[?\s*{table}\s*\]\]?\s*(#.*)?$")
+    lines, seen, at = text.splitlines(), 0, None
+    for n, line in enumerate(lines, 1):
+        if at is None:
+            if header.match(line):
+                seen += 1
+                if seen == nth:
+                    at = n
+            continue
+        if line.lstrip().startswith("["):  # the next table: the key is not here
+            break
+        if key and re.match(rf"^\s*[\"']?{re.escape(key)}[\"']?\s*[=.]", line):
+            return f" line {n}"
+    return f" line {at}" if at else ""
 
 
 _TEXT_KEYS = ("root", "name", "queue", "hold", "note", "same_as")

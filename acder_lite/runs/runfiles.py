@@ -3,7 +3,9 @@ progress.csv, config.json, checkpoint.pt with policy.pt, done.json (and, for a r
 carried over from another machine, checkpoint.packed/: `packed`).
 
 Every file is written atomically (`io`), so an interrupt leaves the previous version
-whole.
+whole, and a write that fails (a full disk, a read-only folder) raises `io.WriteError`
+with the same guarantee. Only config.json, the run's first file, makes the folder: one
+removed while its run trains is an error at the next write, not made again empty.
 """
 
 from __future__ import annotations
@@ -94,13 +96,17 @@ class RunFiles:
 
     def __init__(self, out_dir: str):
         self.out_dir = out_dir
+        self.checkpoint_cycle: int | None = None
+        """The cycle of the checkpoint on disk this run wrote (`save`) or went on from
+        (`Trainer.load_state_dict`); None before the first. The trainer writes
+        progress.csv only once there is one."""
 
     def path(self, name: str) -> str:
         return os.path.join(self.out_dir, name)
 
     def write_progress(self, rows: list[dict], columns: list[str]) -> None:
         """progress.csv: one row per evaluation."""
-        write_csv(self.path("progress.csv"), rows, columns)
+        write_csv(self.path("progress.csv"), rows, columns, make_folder=False)
 
     def write_config(
         self, config: dict, seed: int, command: str, at_cycle: int
@@ -132,11 +138,14 @@ class RunFiles:
     def save(self, state: dict, policy_state: dict) -> None:
         """checkpoint.pt (everything, to resume) and policy.pt
         (the actor and its normalisers)."""
-        save_torch(self.path("checkpoint.pt"), arrays_as_tensors(state))
-        save_torch(self.path("policy.pt"), dict(policy=policy_state))
+        save_torch(
+            self.path("checkpoint.pt"), arrays_as_tensors(state), make_folder=False
+        )
+        self.checkpoint_cycle = int(state.get("progress", {}).get("cycle", 0))
+        save_torch(self.path("policy.pt"), dict(policy=policy_state), make_folder=False)
 
     def write_done(self, info: dict) -> None:
         """done.json: the run ended (how, when, with what test success). A packed
         checkpoint (`packed`) it was carried over with has served: removed."""
-        write_json(self.path("done.json"), info)
+        write_json(self.path("done.json"), info, make_folder=False)
         shutil.rmtree(self.path(packed.FOLDER), ignore_errors=True)

@@ -107,11 +107,10 @@ class StepPool:
     helpers, thread k taking envs k, k + n, k + 2n, ...
 
     Trap: one executor task per env (`executor.map` over the W envs) pays a thread
-    wake-up for every env at every step, and the calling thread sits idle meanwhile; on
-    this machine's VM two threads so gained little or nothing over one (FetchPush, 4
-    envs, two runs: 61.5 and 42.3 ms an episode against 55.5 and 45.6 sequential; this
-    way 44.3 and 35.1; experiments/speed/steppool_ab.py). Here a step wakes n - 1
-    helpers once each and the caller steps its own share.
+    wake-up for every env at every step, and the calling thread sits idle meanwhile;
+    two threads so gained little or nothing over one (measured in experiments/speed/,
+    `steppool_ab.py` and its README). Here a step wakes n - 1 helpers once each and the
+    caller steps its own share.
     """
 
     def __init__(self, n: int):

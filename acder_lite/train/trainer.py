@@ -17,6 +17,7 @@ import numpy as np
 import torch
 
 from acder_lite.envs import fetch as E
+from acder_lite.envs import multistep as M
 from acder_lite.algo.buffer import EpisodeBuffer
 from acder_lite.config import Config
 from acder_lite.algo.curiosity import ICM, SICM
@@ -156,6 +157,8 @@ class Trainer:
                 cfg.init,
                 dev,
             )
+        # the multi-step Push's per-block columns (M.BLOCK_COLUMNS, M.POOL_COLUMN)
+        self.multistep = cfg.env == M.ENV_ID
         self.selector = (
             StartStateSelector(cfg.pool_size, cfg.alpha0, cfg.alpha_base)
             if sw["start_states"]
@@ -203,6 +206,10 @@ class Trainer:
             extra += ["per_beta"]
         if self.ebp is not None:
             extra += ["energy_mean"]
+        if self.multistep:
+            extra += list(M.BLOCK_COLUMNS)
+            if self.selector is not None:
+                extra += [M.POOL_COLUMN]
         return BASE_COLUMNS + extra
 
     def _reset_diag(self):
@@ -451,14 +458,26 @@ class Trainer:
     def evaluate(self) -> float:
         """Mean is_success at the last step of test_episodes deterministic episodes per
         worker. Also `q_mean`: the critic's Q(s_0, pi(s_0)) at the test episodes' first
-        states (Baselines' test/mean_Q averages Q over every step instead)."""
-        succ, q = [], []
+        states (Baselines' test/mean_Q averages Q over every step instead); on the
+        multi-step Push, each block's shares of these episodes (`M.block_shares`, read
+        from their arrays: no random number drawn)."""
+        succ, q, ag, g = [], [], [], []
         for _ in range(self.cfg.test_episodes):
             ep = run_episodes(self.test_envs, self.policy, self.T, pool=self.pool)
             succ.append(ep["success"])
             x = self.policy.inputs(ep["o"][:, 0], ep["g"][:, 0])
             q.append(self.agent.critic(x, self.agent.actor(x)).cpu().numpy())
+            ag.append(ep["ag"])
+            g.append(ep["g"][:, -1])
         self.diag["q_mean"] = float(np.mean(np.concatenate(q))) if q else float("nan")
+        if self.multistep:
+            threshold = float(self.test_envs[0].distance_threshold)
+            if ag:
+                self.diag.update(
+                    M.block_shares(np.concatenate(ag), np.concatenate(g), threshold)
+                )
+            else:
+                self.diag.update(dict.fromkeys(M.BLOCK_COLUMNS, float("nan")))
         return float(np.mean(np.concatenate(succ))) if succ else float("nan")
 
     # ----- the run
@@ -486,14 +505,35 @@ class Trainer:
         )
         if self.selector is not None:
             row.update(alpha=self.selector.alpha, pool_size=len(self.selector.pool))
+        if self.multistep:
+            row.update({k: d[k] for k in M.BLOCK_COLUMNS})
+            if self.selector is not None:
+                row[M.POOL_COLUMN] = self.pool_block_on_target()
         if self.per is not None:
             row["per_beta"] = self.per_beta
         row = {k: row[k] for k in self.columns}  # only this method's diagnostics
         self.rows.append(row)
         self._reset_diag()
-        if self.files:
-            self.files.write_progress(self.rows, self.columns)
-        return row
+        return row  # written to progress.csv by `train`, after its checkpoint
+
+    def pool_block_on_target(self) -> float:
+        """Share of the start-state pool's candidates with at least one block within
+        distance_threshold of its own target (`M.POOL_COLUMN`; NaN for an empty pool).
+        The target is the candidate's stored goal, that of the episode it came from
+        (with `restart_goal="resample"`, the default, a restarted episode gets a fresh
+        goal). The blocks' positions are read from the stored MuJoCo states
+        (`E.site_positions`: no env stepped, no random number drawn), as float32 like
+        the buffer's achieved goals; the pool stores nothing more for it, so older
+        checkpoints' pools read the same."""
+        pool = self.selector.pool
+        if not pool:
+            return float("nan")
+        env = self.test_envs[0]
+        states = np.stack([c["state"] for c in pool])
+        goals = np.stack([c["goal"] for c in pool])
+        ag = E.site_positions(env, states, M.OBJECTS).reshape(len(pool), -1)
+        on = M.any_block_on_target(ag.astype(np.float32), goals, env.distance_threshold)
+        return float(on.mean())
 
     def should_stop(self) -> bool:
         """The stop rule: test success >= success_threshold at the last stop_patience
@@ -550,9 +590,10 @@ class Trainer:
                 self.train_cycle()
                 bar.update(1)
                 end_of_epoch = self.cycle % c.cycles == 0
-                if end_of_epoch or (
+                logged = end_of_epoch or (
                     c.eval_every_cycles and self.cycle % c.eval_every_cycles == 0
-                ):
+                )
+                if logged:
                     row = self.log_row(t0)
                     bar.set_postfix(
                         success=f"{row['test_success']:.2f}", episodes=self.episodes
@@ -566,6 +607,12 @@ class Trainer:
                     t0 = time.perf_counter()
                     if self.files:
                         self.files.save(self.state_dict(), self.policy_state())
+                if logged and self.files and self.files.checkpoint_cycle is not None:
+                    # a row reaches progress.csv once a checkpoint is on disk (an
+                    # epoch's, after its own), so a run killed or failing before its
+                    # first leaves no progress.csv to refuse; a mid-epoch row past the
+                    # last checkpoint is dropped on resume (`train` above)
+                    self.files.write_progress(self.rows, self.columns)
             if not self.done and self.cycle >= total:
                 self.done, self.stop_reason = True, "budget"
         finally:
@@ -671,6 +718,8 @@ class Trainer:
         )
         # absent from checkpoints written before it was recorded
         self.stop_reason = p.get("stop_reason")
+        if self.files:  # the checkpoint this run goes on from is on disk
+            self.files.checkpoint_cycle = self.cycle
         r = d["rng"]
         self.rng.bit_generator.state = r["numpy"]
         torch.set_rng_state(r["torch"])

@@ -3,9 +3,15 @@ timing column, and every tensor and number of policy.pt. One line a run, `same` 
 `DIFF` with what differs (a key only one policy.pt has is named: a new field moves no
 float, but it is a difference); exit code 1 if any differs.
 
+`--new-columns a,b,...` ignores those progress.csv columns where only the AFTER run has
+them (a change that records something more); the line of such a run says which it
+ignored. Every other column, and a named column both runs have, is compared as before.
+
 usage: .venv/bin/python experiments/bit-identity/compare.py BEFORE AFTER
+       [--new-columns a,b,...]
 """
 
+import argparse
 import csv
 import sys
 from pathlib import Path
@@ -50,13 +56,27 @@ def equal(v, w) -> bool:
         return v == w
 
 
-def differences(a: Path, b: Path) -> list[str]:
-    """What differs between run folders `a` and `b` ([] if nothing)."""
+def header(path: Path) -> list[str]:
+    with open(path) as f:
+        return next(csv.reader(f), [])
+
+
+def ignored_columns(a: Path, b: Path, new_columns=()) -> list[str]:
+    """The `new_columns` that run `b`'s progress.csv has and run `a`'s has not."""
+    before, after = header(a / "progress.csv"), header(b / "progress.csv")
+    return [c for c in after if c in set(new_columns) and c not in before]
+
+
+def differences(a: Path, b: Path, new_columns=()) -> list[str]:
+    """What differs between run folders `a` and `b` ([] if nothing); progress.csv
+    columns named in `new_columns` that only `b` has are left out."""
     if not (b / "progress.csv").exists():
         return ["no run"]
-    out = (
-        [] if rows(a / "progress.csv") == rows(b / "progress.csv") else ["progress.csv"]
-    )
+    skip = set(ignored_columns(a, b, new_columns))
+    after = [
+        {k: v for k, v in r.items() if k not in skip} for r in rows(b / "progress.csv")
+    ]
+    out = [] if rows(a / "progress.csv") == after else ["progress.csv"]
     pa = dict(flat(torch.load(a / "policy.pt", weights_only=False)))
     pb = dict(flat(torch.load(b / "policy.pt", weights_only=False)))
     out += [f"policy.pt {k} only in one" for k in sorted(set(pa) ^ set(pb))]
@@ -66,7 +86,7 @@ def differences(a: Path, b: Path) -> list[str]:
     return out
 
 
-def main(before: Path, after: Path) -> int:
+def main(before: Path, after: Path, new_columns=()) -> int:
     names = {p.parent.relative_to(before) for p in before.rglob("progress.csv")}
     if not names:
         print(f"compare.py: no runs under {before}", file=sys.stderr)
@@ -80,12 +100,32 @@ def main(before: Path, after: Path) -> int:
             bad += 1
     for p in sorted(before.rglob("progress.csv")):
         run = p.parent.relative_to(before)
-        diff = differences(p.parent, after / run)
+        diff = differences(p.parent, after / run, new_columns)
         more = f" (+{len(diff) - 3} more)" if len(diff) > 3 else ""
-        print(f"DIFF {run}: {', '.join(diff[:3])}{more}" if diff else f"same {run}")
+        skipped = (
+            ignored_columns(p.parent, after / run, new_columns)
+            if (after / run / "progress.csv").exists()
+            else []
+        )
+        note = f" (new columns ignored: {', '.join(skipped)})" if skipped else ""
+        print(
+            f"DIFF {run}: {', '.join(diff[:3])}{more}{note}"
+            if diff
+            else f"same {run}{note}"
+        )
         bad += bool(diff)
     return 1 if bad else 0
 
 
 if __name__ == "__main__":
-    sys.exit(main(Path(sys.argv[1]), Path(sys.argv[2])))
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("before", type=Path)
+    ap.add_argument("after", type=Path)
+    ap.add_argument(
+        "--new-columns",
+        default="",
+        help="comma-separated progress.csv columns to ignore where only AFTER has them",
+    )
+    args = ap.parse_args()
+    named = [c for c in args.new_columns.split(",") if c]
+    sys.exit(main(args.before, args.after, named))

@@ -30,6 +30,6 @@ for env in FetchPush-v4 FetchPushMultiStep-v0; do
     nice -n 5 "$PY" -m acder_lite train --env "$env" --method "$method" --seed 3 \
       --out "$d" --workers 2 --cycles 2 --updates-per-cycle 3 --test-episodes 2 \
       --batch-size 32 --hidden 32 --buffer-size 5000 --stop-patience 0 --epochs 2 \
-      --threads 1 --quiet "${extra[@]}" > /dev/null
+      --threads 1 --update-dtype float32 --quiet "${extra[@]}" > /dev/null
   done
 done
