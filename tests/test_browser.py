@@ -201,7 +201,7 @@ def _write_outputs_page(path: Path) -> None:
         nbformat.v4.new_markdown_cell("# Markdown outputs"),
         nbformat.v4.new_code_cell(
             "from IPython.display import Markdown, display\n"
-            "from acder_lite import robust as R\n"
+            "from acder_lite.deploy import robust as R\n"
             "row = dict(knob='obs_noise', level=0.0, successes=3, trials=4)\n"
             "display(Markdown(R.side_by_side({'full state': dict(rows=[row])})))"
         ),
@@ -420,7 +420,8 @@ class Lab:
 
 
 LIVE_MESHCAT = [
-    "from acder_lite import envs as E, viz\n"
+    "from acder_lite.book import viz\n"
+    "from acder_lite.envs import fetch as E\n"
     "env = E.make_env('FetchPush-v4', seed=0)\n"
     "rec = viz.record_states(env, E.get_state(env)[None], "
     "env._get_obs()['desired_goal'])\n"
