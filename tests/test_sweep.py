@@ -823,6 +823,33 @@ def test_the_committed_plan_reads():
         for m in ("her", "acder", "her-ebp", "acder-no-start-states")
     ] == [5, 5, 2, 2]
     assert all(c.options.get("update_dtype") == "float32" for c in cells)
+    # Multi-step Push: the 40-epoch pair in experiments/, ACDER at 400 in results/
+    multi = {
+        (c.out.parent.name, c.epochs, c.out.parts[-4])
+        for c in cells
+        if c.env == "FetchPushMultiStep-v0"
+    }
+    assert multi == {
+        ("her", 40, "multistep-40"),
+        ("acder", 40, "multistep-40"),
+        ("acder", 400, "results"),
+    }
+
+
+def test_one_cell_under_two_roots_is_two_folders(tmp_path):
+    """The same env/method/seed planned under two roots is two run folders, allowed;
+    the same folder twice is refused by its path."""
+    group = "[[group]]\nenvs = ['FetchReach-v4']\nmethods = ['her']\nseeds = [0]\n"
+    path = tmp_path / "results" / "plan.toml"
+    path.parent.mkdir()
+    path.write_text(group + "root = '../exp'\n" + group)
+    assert [c.out for c in read_plan(path)] == [
+        tmp_path / "exp" / "FetchReach-v4" / "her" / "seed0",
+        tmp_path / "results" / "FetchReach-v4" / "her" / "seed0",
+    ]
+    path.write_text(group + "root = '../results'\n" + group)
+    with pytest.raises(PlanError, match="'FetchReach-v4/her/seed0' is planned twice"):
+        read_plan(path)
 
 
 def test_negative_seed(tmp_path, capsys):

@@ -291,11 +291,14 @@ def read_plan(path: str | Path) -> list[Cell]:
             except PlanError as e:
                 raise _group_error(path, text, i, f": {e}") from None
             queues.setdefault(str(g.get("queue", "grid")), []).append(cell)
-    names = [c.name for q in queues.values() for c in q]
-    dup = next((n for n in names if names.count(n) > 1), None)
+    # The same env/method/seed may be planned under two roots (chapter 9's 40-epoch
+    # run in experiments/, the 400-epoch one in results/): a folder is the identity.
+    outs = [c.out for q in queues.values() for c in q]
+    dup = next((o for o in outs if outs.count(o) > 1), None)
     if dup:
+        shown = os.path.relpath(dup, path.parent)
         raise PlanError(
-            f"plan {str(path)!r}: the run folder {dup!r} "
+            f"plan {str(path)!r}: the run folder {shown!r} "
             "is planned twice; allowed: once"
         )
     return [

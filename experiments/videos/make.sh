@@ -16,6 +16,10 @@ PY=${PY:-.venv/bin/python}
 export MUJOCO_GL=${MUJOCO_GL:-egl}
 OUT=book/_static/videos
 mkdir -p "$OUT"
+# Multi-step Push: the 40-epoch run (experiments/multistep-40/) until the 400-epoch run of
+# results/ has finished.
 for task in FetchReach-v4 FetchPush-v4 FetchPickAndPlace-v4 FetchPushMultiStep-v0; do
-  nice -n 10 "$PY" -m acder_lite.book.video "results/$task/acder/seed0" "$OUT/$task-acder.gif"
+  run="results/$task/acder/seed0"
+  [ -f "$run/done.json" ] || run="experiments/multistep-40/$task/acder/seed0"
+  nice -n 10 "$PY" -m acder_lite.book.video "$run" "$OUT/$task-acder.gif"
 done
