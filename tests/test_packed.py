@@ -77,9 +77,10 @@ def test_packing_again_adds_only_the_new_episodes(tmp_path):
         assert back["buffer"][k].tobytes() == ckpt["buffer"][k].tobytes(), k
 
 
-def test_a_wrapped_buffer_packs_whole_and_rebuilds(tmp_path):
-    """Past its capacity the buffer overwrites its oldest slots, so chunks of earlier
-    packs no longer hold its episodes: a new pack replaces them."""
+def test_a_wrapped_buffer_packs_and_rebuilds(tmp_path):
+    """Past its capacity the buffer overwrites its oldest slots, so a chunk of an
+    earlier pack may no longer hold what its slots hold: a new pack replaces it, under
+    a name no earlier pack used."""
     run = tmp_path / "run"
     cfg = tiny_config(env="FetchReach-v4", epochs=4, buffer_size=1000)  # 20 episodes
     Trainer(cfg, str(run)).train(False)
@@ -87,7 +88,9 @@ def test_a_wrapped_buffer_packs_whole_and_rebuilds(tmp_path):
     assert ck["buffer"]["total"] == 24 and ck["buffer"]["n"] == 20
     stale = run / packed.FOLDER / "episodes-00000000-00000002.npz"
     stale.parent.mkdir()
-    np.savez_compressed(stale, **packed.episodes_of(ck["buffer"], 0, 2))
+    old = {k: v.copy() for k, v in packed.episodes_of(ck["buffer"], 0, 2).items()}
+    old["u"][0, 0, 0] += 0.5  # what slot 0 held before it was overwritten
+    np.savez_compressed(stale, **old)
     packed.pack(ck, run / packed.FOLDER)
     # named by the episodes ever stored: never the name of a chunk a pack still lists
     assert [p.name for p in (run / packed.FOLDER).glob("*.npz")] == [
@@ -99,6 +102,68 @@ def test_a_wrapped_buffer_packs_whole_and_rebuilds(tmp_path):
         ck["buffer"]["total"],
     )
     assert back["o"].tobytes() == ck["buffer"]["o"].tobytes()
+
+
+def test_a_wrapped_buffer_packs_only_the_slots_it_overwrote(tmp_path):
+    """Once the buffer wraps, a pack keeps every chunk whose slots still hold what it
+    holds and writes the overwritten slots in blocks: the 400-epoch Multi-step Push's
+    session-end packs grow by the new episodes, not by a whole buffer each."""
+    kw = dict(env="FetchReach-v4", epochs=5, buffer_size=1000)  # 20 episodes
+    part = tmp_path / "part"
+    Trainer(tiny_config(**kw), str(part)).train(False, max_cycles=6)
+    ck = load_torch(str(part / "checkpoint.pt"))
+    assert (ck["buffer"]["n"], ck["buffer"]["total"]) == (12, 12)
+    first = packed.pack(ck, part / packed.FOLDER, block=4)
+    assert first["new"] == 12
+    names = sorted(p.name for p in (part / packed.FOLDER).glob("*.npz"))
+    assert names == [
+        "episodes-00000000-00000004.npz",
+        "episodes-00000004-00000008.npz",
+        "episodes-00000008-00000012.npz",
+    ]
+    kept = {n: (part / packed.FOLDER / n).read_bytes() for n in names[1:]}
+    (part / "checkpoint.pt").unlink()
+    tr = Trainer(tiny_config(**kw), str(part))
+    tr.load_state_dict(packed.unpack(part))
+    # to 24 episodes, still in flight (a finished run drops its packed folder): slots
+    # 0-3 overwritten, 12-19 filled
+    tr.train(False, max_cycles=12)
+    ck = load_torch(str(part / "checkpoint.pt"))
+    assert (ck["buffer"]["n"], ck["buffer"]["total"], ck["buffer"]["next"]) == (
+        20,
+        24,
+        4,
+    )
+    again = packed.pack(ck, part / packed.FOLDER, block=4)
+    assert again["new"] == 12  # slots 0-3 and 12-19; 4-11 kept
+    names = sorted(p.name for p in (part / packed.FOLDER).glob("*.npz"))
+    assert names == [
+        "episodes-00000000-00000004-w00000024.npz",
+        "episodes-00000004-00000008.npz",
+        "episodes-00000008-00000012.npz",
+        "episodes-00000012-00000016-w00000024.npz",
+        "episodes-00000016-00000020-w00000024.npz",
+    ]
+    assert all((part / packed.FOLDER / n).read_bytes() == b for n, b in kept.items())
+    back = packed.unpack(part)["buffer"]
+    for k in ("o", "ag", "g", "u", "state", "success"):
+        assert back[k].tobytes() == ck["buffer"][k].tobytes(), k
+    # packing the same checkpoint again writes nothing
+    assert packed.pack(ck, part / packed.FOLDER, block=4)["new"] == 0
+
+
+def test_chunks_that_do_not_follow_each_other_are_refused(tmp_path, monkeypatch):
+    """A state that lists its chunks out of slot order (or with a gap) would rebuild
+    a buffer of shuffled slots: refused in one line before any re-simulation."""
+    run = tmp_path / "run"
+    Trainer(tiny_config(epochs=2), str(run)).train(False, max_cycles=3)
+    packed.pack(load_torch(str(run / "checkpoint.pt")), run / packed.FOLDER, block=4)
+    state = packed.read_state(run)
+    assert len(state["buffer"]["chunks"]) == 2  # 6 episodes in blocks of 4
+    state["buffer"]["chunks"] = state["buffer"]["chunks"][::-1]
+    monkeypatch.setattr(packed, "read_state", lambda run_dir: state)
+    with pytest.raises(CheckpointError, match="do not follow each other"):
+        packed.read(run)
 
 
 def test_a_buffer_that_does_not_replay_is_refused(tmp_path, capsys):

@@ -18,10 +18,15 @@ networks, optimisers, normalisers, random states: everything of checkpoint.pt bu
 buffer's arrays). A repository that commits the packed folder of a run in flight thus
 grows by that run's new episodes, not by its whole buffer, each session.
 
-Trap: that holds while the buffer only appends. Once it wraps (FIFO: the 400-epoch
-Multi-step Push does at epoch 100), its slots no longer hold the episodes in order and a
-pack writes the whole buffer again as one chunk (`_chunk_name`'s `-w<total>`): correct,
-but a full buffer's size in the repository at each session's pack.
+Trap: a buffer that wraps (FIFO: the 400-epoch Multi-step Push does at epoch 100)
+overwrites its oldest slots, so its slots no longer hold the episodes in order. A chunk
+is therefore a span of *slots*, kept while the buffer's slots there hold what it holds
+(checked array by array), and new chunks are cut at multiples of `SLOT_BLOCK` slots: a
+pack of a wrapped buffer writes only the blocks overwritten since the last pack (at most
+two blocks more than the new episodes), not the whole buffer again (which for that run
+was about 65 MB at each session's pack). A chunk written while the buffer is wrapped is
+named by the episodes ever stored (`-w<total>`), so it never takes the name of a chunk
+the current state.pt.gz still lists.
 
 `python -m acder_lite pack DIR` packs every run under DIR that has a checkpoint.pt and
 has not finished, and removes the packed folder of runs that have; `train --resume`
@@ -35,6 +40,7 @@ from __future__ import annotations
 import gzip
 import hashlib
 import os
+import re
 import shutil
 import sys
 import tempfile
@@ -58,6 +64,12 @@ FOLDER = "checkpoint.packed"
 STATE = "state.pt.gz"
 FORMAT = 1
 """The layout's version, recorded in state.pt.gz; unpack refuses others."""
+SLOT_BLOCK = 2000
+"""New chunks are cut at multiples of this many buffer slots (episodes): small enough
+that a wrapped buffer's pack rewrites little beside the overwritten slots (2,000
+Multi-step Push episodes pack to about 3 MB), large enough to keep a run's chunk files
+few (20 for a full 40,000-episode buffer)."""
+CHUNK = re.compile(r"episodes-(\d{8})-(\d{8})(?:-w(\d{8}))?\.npz")
 
 
 def digest(buffer: dict) -> str:
@@ -158,8 +170,9 @@ def rebuild(env, meta: dict, chunks: list[dict]) -> dict:
 
 
 def _chunk_name(lo: int, hi: int, total: int | None = None) -> str:
-    """`episodes-<first>-<end>.npz`; a wrapped buffer's (`total` episodes ever stored)
-    adds `-w<total>`, so it never overwrites the chunk the current state.pt.gz names."""
+    """`episodes-<first>-<end>.npz`, the buffer slots it holds; a wrapped buffer's
+    (`total` episodes ever stored) adds `-w<total>`, so it never overwrites a chunk the
+    current state.pt.gz names."""
     wrap = "" if total is None else f"-w{total:08d}"
     return f"episodes-{lo:08d}-{hi:08d}{wrap}.npz"
 
@@ -173,24 +186,30 @@ def _same(a: dict, b: dict) -> bool:
     return all(np.array_equal(a[k], b[k]) for k in a)
 
 
-def pack(ckpt: dict, folder: str | Path) -> dict:
+def pack(ckpt: dict, folder: str | Path, block: int = SLOT_BLOCK) -> dict:
     """Write checkpoint `ckpt` (a `Trainer.state_dict`, as `load_torch` reads it) as a
-    packed folder. Chunks already there that hold the same episodes are kept, and only
-    the episodes after them are written; any other chunk is replaced. Returns what was
-    written: episodes, new episodes, bytes of the folder."""
+    packed folder. Chunks already there whose slots the buffer still holds unchanged
+    are kept; the other slots are written in new chunks cut at multiples of `block`
+    slots; any chunk not kept is removed once the new state names the new set. Returns
+    what was written: episodes, new (slots written), bytes of the folder."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     buf = ckpt["buffer"]
-    n = int(buf["n"])
-    wrapped = int(buf["total"]) != n  # slots no longer in episode order
-    keep = [] if wrapped else _reusable_chunks(folder, buf)
-    lo = keep[-1][1] if keep else 0
-    names = [_chunk_name(a, b) for a, b in keep]
-    if lo < n:
-        name = _chunk_name(lo, n, int(buf["total"]) if wrapped else None)
-        part = episodes_of(buf, lo, n)
-        atomic_write(str(folder / name), lambda f: np.savez_compressed(f, **part))
-        names.append(name)
+    n, total = int(buf["n"]), int(buf["total"])
+    wrapped = total != n  # slots no longer in episode order
+    chunks = {lo: (hi, name) for lo, hi, name in _reusable_chunks(folder, buf)}
+    written, at = 0, 0
+    for lo in [*sorted(chunks), n]:  # the gaps between kept chunks, in blocks
+        while at < lo:
+            hi = min(lo, (at // block + 1) * block)
+            name = _chunk_name(at, hi, total if wrapped else None)
+            part = episodes_of(buf, at, hi)
+            atomic_write(str(folder / name), lambda f: np.savez_compressed(f, **part))
+            chunks[at] = (hi, name)
+            written += hi - at
+            at = hi
+        at = chunks[lo][0] if lo < n else n
+    names = [chunks[lo][1] for lo in sorted(chunks)]
     T = int(np.asarray(buf["u"]).shape[1])
     meta = dict(
         n=n,
@@ -212,31 +231,32 @@ def pack(ckpt: dict, folder: str | Path) -> dict:
         if p.name not in names:
             p.unlink()
     size = sum(p.stat().st_size for p in folder.iterdir())
-    return dict(episodes=n, new=n - lo, bytes=size)
+    return dict(episodes=n, new=written, bytes=size)
 
 
-def _reusable_chunks(folder: Path, buf: dict) -> list[tuple[int, int]]:
-    """The chunks in `folder` that continue each other from episode 0 and hold exactly
-    the buffer's episodes there (checked array by array)."""
-    spans = []
-    for p in sorted(folder.glob("episodes-*.npz")):
-        try:
-            lo, hi = (int(x) for x in p.stem.split("-")[1:3])
-        except ValueError:
+def _spans(names) -> list[tuple[int, int, str]]:
+    """(first slot, end slot, name) of each chunk name `pack` writes, in their order;
+    other names are left out."""
+    found = [(m, name) for name in names if (m := CHUNK.fullmatch(name))]
+    return [(int(m[1]), int(m[2]), name) for m, name in found]
+
+
+def _reusable_chunks(folder: Path, buf: dict) -> list[tuple[int, int, str]]:
+    """The chunks in `folder` whose slots the buffer still holds unchanged (checked
+    array by array), none overlapping another; for two over the same slots the one
+    starting first and then the longer is tried first."""
+    n, keep, end = int(buf["n"]), [], 0
+    spans = _spans(p.name for p in folder.glob("episodes-*.npz"))
+    for lo, hi, name in sorted(spans, key=lambda x: (x[0], -x[1])):
+        if lo < end or hi > n or hi <= lo:
             continue
-        spans.append((lo, hi, p))
-    keep, at = [], 0
-    for lo, hi, p in spans:
-        if lo != at or hi > int(buf["n"]) or p.name != _chunk_name(lo, hi):
-            break
         try:
-            same = _same(_read_chunk(p), episodes_of(buf, lo, hi))
-        except Exception:  # damaged: replaced by the new chunk
+            same = _same(_read_chunk(folder / name), episodes_of(buf, lo, hi))
+        except Exception:  # damaged: its slots go to a new chunk
             same = False
-        if not same:
-            break
-        keep.append((lo, hi))
-        at = hi
+        if same:
+            keep.append((lo, hi, name))
+            end = hi
     return keep
 
 
@@ -329,6 +349,13 @@ def read(run_dir: str | Path) -> tuple[dict, list[dict]]:
         raise CheckpointError(
             f"packed checkpoint {str(folder)!r} names no chunk; allowed: a folder "
             "`pack` wrote"
+        )
+    spans = _spans(state["buffer"]["chunks"])
+    ends = [0] + [hi for _, hi, _ in spans]
+    if len(spans) != len(chunks) or any(lo != e for (lo, _, _), e in zip(spans, ends)):
+        raise CheckpointError(
+            f"packed checkpoint {str(folder)!r}: its chunks do not follow each other "
+            "slot by slot from 0; allowed: a folder `pack` wrote"
         )
     return state, chunks
 
