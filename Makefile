@@ -33,8 +33,12 @@ lint: setup
 # Execute the notebooks and build the HTML book into _build/html (offline, warnings are errors).
 # --all: every page, every time. Sphinx rebuilds only the pages whose own file changed, so a
 # change to acder_lite/ alone would leave the chapters it feeds with their old outputs.
+# Then book/check_built.py reads the built pages as a reader sees them: each chapter's prose
+# outweighs its code and output, every exercise has a solution, every image has alt text,
+# chapter 8 stays a results page (tests/test_book_checks.py tests the checks).
 book: setup
 	.venv/bin/jupyter-book build --all --warningiserror --keep-going .
+	$(PY) book/check_built.py _build/html
 
 # The chapters in JupyterLab (jupyter-config/): 127.0.0.1 only, a fresh token in the URL it prints,
 # the venv's Python as the kernel, no news or update checks. `ACDER_FAST=1 make lab` for the fast
