@@ -100,8 +100,6 @@ MOVED = {
     "plots": "book.plots",
     "viz": "book.viz",
     "findings": "book.findings",
-    "ablation_findings": "book.ablation_findings",
-    "experiment_findings": "book.experiment_findings",
     "multistep_report": "book.multistep_report",
     "deploy_report": "book.deploy_report",
     "factor_report": "book.factor_report",

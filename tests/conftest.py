@@ -69,8 +69,7 @@ def rows_of(path) -> list[dict]:
 def curve_cell(name: str, values, env="FetchPush-v4", ended="budget", seeds=2):
     """A cell of `seeds` equal seeds whose test success at epochs 1, 2, ... is `values`
     (400 episodes an epoch, a budget of len(values) epochs), through report.cell_stat:
-    for Table I's text cells (table) and the book's sentences (findings,
-    ablation_findings, experiment_findings)."""
+    for Table I's text cells (table) and the book's computations (findings)."""
     from acder_lite.stats.report import cell_stat
 
     rows = [
@@ -102,8 +101,7 @@ def her_acder_cells():
 
 def push_cell(name: str, crossing, low, high):
     """A FetchPush CellStat with only a mean-curve crossing and its interval (epochs),
-    for the readings' rule (report.choose) and its sentence
-    (experiment_findings.choice_sentence)."""
+    for the readings' rule (report.choose)."""
     from acder_lite.stats.report import CellStat
 
     return CellStat(

@@ -1237,12 +1237,12 @@ def test_same_as_copies_a_finished_run_with_the_cells_config(tmp_path, capsys):
 
     copied = runs.read_run(run)
     assert copied["same_as"] == str(exp / "seed0") and copied["seed"] == 0
-    assert findings.copies_sentence([copied, runs.read_run(exp / "seed0")]) == (
-        f"DDPG+ACDER's seed 0 on Push is the run of `{exp}`."
-    )
-    assert findings.copies_sentence([copied], root=tmp_path) == (
-        "DDPG+ACDER's seed 0 on Push is the run of `exp/FetchPush-v4/sicm-raw`."
-    )
+    assert findings.copied_runs([copied, runs.read_run(exp / "seed0")]) == {
+        ("FetchPush-v4", "acder", str(exp)): [0]
+    }
+    assert findings.copied_runs([copied], root=tmp_path) == {
+        ("FetchPush-v4", "acder", "exp/FetchPush-v4/sicm-raw"): [0]
+    }
     assert "threads" in config["same_as"]["compared"]
     assert not list(run.glob(".*.tmp"))
     assert read_plan(plan_file)[0].note == "already complete"

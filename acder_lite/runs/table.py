@@ -8,9 +8,8 @@ against the plan file (`<results>/plan.toml`, or `--plan FILE`) where there is o
 `--results experiments/protocol-v1` reads the earlier runs the same way.
 
 This module only renders the table (its text cells, markdown, HTML for the book) and
-runs the CLI; reading run folders is `runs`', the statistics are `report`'s and the
-sentences the book says about them are `findings`', `ablation_findings`' and
-`experiment_findings`' (import them from there).
+runs the CLI; reading run folders is `runs`', the statistics are `report`'s, and what
+the book computes beside them for its sentences is `book.findings`'.
 """
 
 from __future__ import annotations

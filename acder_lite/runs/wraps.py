@@ -9,8 +9,8 @@ among successful rows) is drawn to.
 
 `angle_wraps` finds those steps in a rollout (`diagnose --episodes` reports their
 share for a trained policy); `summarize` reads the JSON files that
-`experiments/angle-wraps/run.sh` writes, one per finished run, and `table_rows` and
-`sentence` put them in the book (chapter 8).
+`experiments/angle-wraps/run.sh` writes, one per finished run, and `table_rows` puts
+them in the book ("Results in detail", whose sentences are written by hand).
 """
 
 from __future__ import annotations
@@ -126,48 +126,6 @@ def table_rows(rows: list[dict]) -> tuple[list[str], list[list[str]]]:
     return header, body
 
 
-def sentence(rows: list[dict], env: str) -> str:
-    """The cells with and without a curiosity bonus on `env`, compared in one sentence:
-    the range of their mean step shares, and whether their seeds' ranges overlap."""
-    mine = [r for r in rows if r["env"] == env]
-    yes = [r for r in mine if r["curiosity_reward"]]
-    no = [r for r in mine if not r["curiosity_reward"]]
-    if not yes or not no:
-        return (
-            f"On {task_label(env)} the runs read so far do not have both kinds of "
-            "reward."
-        )
-
-    def means(rs):
-        m = [r["step_share"] for r in rs]
-        return _span(min(m), max(m))
-
-    def seeds(rs):
-        return min(r["step_share_min"] for r in rs), max(
-            r["step_share_max"] for r in rs
-        )
-
-    (ylo, yhi), (nlo, nhi) = seeds(yes), seeds(no)
-    apart = ylo > nhi or yhi < nlo
-    return (
-        f"On {task_label(env)}, the block turns through a wrap at {means(yes)} of the "
-        f"test steps in {_cells(yes)} whose reward has a curiosity bonus (the mean "
-        f"over a cell's seeds), at {means(no)} in {_cells(no)} without one; seed by "
-        f"seed the two {'do not overlap' if apart else 'overlap'} "
-        f"({_span(ylo, yhi)} against {_span(nlo, nhi)})."
-    )
-
-
-def _span(lo: float, hi: float) -> str:
-    """'1.48% to 3.23%', or '1.00%' where both ends print the same."""
-    a, b = f"{lo:.2%}", f"{hi:.2%}"
-    return a if a == b else f"{a} to {b}"
-
-
-def _cells(rows: list[dict]) -> str:
-    return "the one cell" if len(rows) == 1 else f"the {len(rows)} cells"
-
-
 def buffer_readings(folder: str | Path) -> list[dict]:
     """The `diagnose --json` files of runs' replay buffers under `folder`
     (`experiments/angle-wraps/buffer.sh`), those with an S-ICM wrap reading, in order
@@ -178,46 +136,3 @@ def buffer_readings(folder: str | Path) -> list[dict]:
         if "wraps" in (d.get("curiosity") or {}):
             out.append(d)
     return out
-
-
-def buffer_sentence(d: dict) -> str:
-    """One buffer reading (`buffer_readings`) in a sentence, and one more for the rows
-    near gimbal lock where the reading has them. A share of no rows (no row at the
-    clip, no candidate) is null in the file and said in words here."""
-    c, w = d["curiosity"], d["curiosity"]["wraps"]
-    at_clip = (
-        "no row is at the clip"
-        if w["share_at_clip"] is None
-        else f"{w['share_at_clip']:.0%} of the rows at the clip are wraps"
-    )
-    n = round(w["share_of_candidates"] * w["candidates"]) if w["candidates"] else 0
-    picked = (
-        "no start-state candidate was drawn"
-        if not w["candidates"]
-        else f"{n} of the {w['candidates']} start-state candidates the minibatches "
-        f"give {'is a wrap' if n == 1 else 'are wraps'}"
-    )
-    how = ", S-ICM on (sin, cos)" if c.get("sicm_angles") == "sincos" else ""
-    text = (
-        f"In the replay buffer of `{d['run']}` ({d['method']}{how}, "
-        f"{d['episodes']:,} episodes), {c['share_at_clip']:.2%} of {c['rows']:,} "
-        f"minibatch rows sit at Eq. 4's clip and {w['share_of_rows']:.2%} of all rows "
-        f"are wraps; {at_clip}, and {picked}"
-        + (
-            "."
-            if METHODS[d["method"]]["start_states"]
-            else " (the rule's picks: this method restarts from none)."
-        )
-    )
-    k = c.get("gimbal")  # readings written before diagnose counted it have none
-    if k:
-        deg = np.degrees(np.arcsin(k["cos_below"]))
-        at_clip = (
-            "" if k["share_at_clip"] is None else f", {k['share_at_clip']:.0%} of those"
-        )
-        text += (
-            f" A block near gimbal lock (pitched within {deg:.1f}° of ±90°, on "
-            f"a side face) is in {k['share_of_rows']:.0%} of the rows{at_clip} at "
-            "the clip."
-        )
-    return text
