@@ -1,35 +1,26 @@
 """Chapter 10's reading of the runs it benches (acder_lite.book.deploy_report), on
-hand-made runs: which finished run each column takes, where the full-state policy came
-from, where a run crossed its threshold and how it ended, and whether a task's columns
-trained as long."""
+hand-made runs: which finished run each column takes and what kind of run it is, where
+a run crossed its threshold and how it ended, the benches' counts, and the `robust`
+command rerun in a fresh process."""
+
+import pytest
 
 from acder_lite.book.deploy_report import (
     STAND_IN,
-    TRAINING_HEADER,
-    full_state_sentence,
-    lengths_sentence,
+    counts,
+    full_state_source,
+    nominal_successes,
+    perturbed_rate,
     policies,
-    policy_lines,
-    training_facts,
-    training_rows,
+    training_summary,
 )
 
 
-def test_full_state_sentence_names_the_stand_ins():
-    """Chapter 10's full-state column: the grid's run, the protocol-v1 stand-in while
-    the grid's has not finished, or none."""
-    R, P, PP = "FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4"
-    grid = {e: f"results/{e}/acder/seed0" for e in (R, P, PP)}
-    assert full_state_sentence(grid) == (
-        "Every task's full-state policy is the grid's own run."
-    )
-    mixed = dict(grid, **{P: f"{STAND_IN}{P}/acder/seed0", PP: None})
-    assert full_state_sentence(mixed) == (
-        "On Reach the full-state policy is the grid's run; on Push the grid's run has "
-        "not finished, and the protocol-v1 run of the same method and seed stands in "
-        "for it (chapter 8 says what differs); on Pick&Place no full-state policy has "
-        "finished."
-    )
+def test_full_state_source_tells_the_grid_from_the_stand_in():
+    P = "FetchPush-v4"
+    assert full_state_source(f"results/{P}/acder/seed0") == "grid"
+    assert full_state_source(f"{STAND_IN}{P}/acder/seed0") == "stand-in"
+    assert full_state_source(None) is None
 
 
 def _run(success, ended, stop_reason, epochs_per_row=1, per_epoch=400):
@@ -57,44 +48,35 @@ def _run(success, ended, stop_reason, epochs_per_row=1, per_epoch=400):
     )
 
 
-def test_training_facts_say_where_a_run_crossed_and_how_it_ended():
+def test_training_summary_says_where_a_run_crossed_and_how_it_ended():
     stopped = _run([0.5, 0.9, 1.0, 1.0, 1.0, 1.0, 1.0], "stop rule", "success held")
-    assert training_facts(stopped) == dict(
-        crossed="first reached 0.95 at 1,000 episodes",
-        ended="stopped once it had held 0.95 for 5 evaluations, after 7 epochs "
-        "(2,800 episodes)",
-    )  # 0.9 at 800, 1.0 at 1,200: 0.95 read halfway between
-    budget = _run([0.2, 0.97, 0.9, 0.89], "budget", "budget")
-    assert training_facts(budget) == dict(
-        crossed="first reached 0.95 at 790 episodes",
-        ended="never held 0.95 for 5 evaluations: it used its whole budget, 4 "
-        "epochs (1,600 episodes), and ended at 0.89",
-    )  # 400 + 400 * (0.95 - 0.2) / (0.97 - 0.2) = 789.6
-    running = _run([0.1, 0.3], None, None)
-    assert training_facts(running) == dict(
-        crossed="never reached 0.95",
-        ended="is still training (2 epochs (800 episodes) so far, at 0.30)",
+    assert training_summary(stopped) == dict(
+        threshold=0.95,
+        patience=5,
+        crossed=pytest.approx(1000.0),  # 0.9 at 800, 1.0 at 1,200: read halfway
+        ended="early stop",
+        epochs=7.0,
+        episodes=2800,
+        last=1.0,
     )
-    both = {"full state": stopped, "simplified state": None}
-    rows = training_rows({"FetchPush-v4": both, "FetchReach-v4": {"a": running}})
-    assert len(TRAINING_HEADER) == 4 and rows == [
-        ("Push", "full state", *training_facts(stopped).values()),
-        ("", "simplified state", "–", "not trained yet"),
-        ("Reach", "a", "never reached 0.95", training_facts(running)["ended"]),
-    ]
-    assert lengths_sentence("FetchPush-v4", both) == (
-        "Not every Push column is trained: there are no lengths to compare."
-    )
-    assert lengths_sentence(
-        "FetchPush-v4", {"full state": stopped, "simplified state": budget}
-    ) == (
-        "The Push policies did not train as long: the full-state one 7 epochs (2,800 "
-        "episodes), the simplified-state one 4 epochs (1,600 episodes), so a "
-        "difference between their columns is one of training as well as of state."
-    )
-    assert lengths_sentence("FetchPush-v4", {"a": budget, "b": budget}) == (
-        "The Push policies trained as long, 4 epochs (1,600 episodes) each."
-    )
+    budget = training_summary(_run([0.2, 0.97, 0.9, 0.89], "budget", "budget"))
+    # 400 + 400 * (0.95 - 0.2) / (0.97 - 0.2) = 789.6
+    assert budget["crossed"] == pytest.approx(789.61, abs=0.01)
+    assert budget["ended"] == "full budget" and budget["last"] == 0.89
+    assert (budget["epochs"], budget["episodes"]) == (4.0, 1600)
+    running = training_summary(_run([0.1, 0.3], None, None))
+    assert running["crossed"] is None and running["ended"] is None
+
+
+def test_training_summary_reads_the_threshold_and_patience_of_the_runs_stop_rule():
+    """done.json's stop rule (0.90, 3 evaluations) comes before the run's config.json
+    (0.95, 5): the crossing of 0.90 between 0.8 at 800 episodes and 1.0 at 1,200 is
+    read halfway, 800 + 400 * (0.9 - 0.8) / (1.0 - 0.8) = 1,000."""
+    run = _run([0.5, 0.8, 1.0, 1.0, 1.0], "stop rule", "success held")
+    run["done_info"]["stop_rule"] = dict(success_threshold=0.9, patience=3)
+    got = training_summary(run)
+    assert (got["threshold"], got["patience"]) == (0.9, 3)
+    assert got["crossed"] == pytest.approx(1000.0)
 
 
 def test_policies_take_a_finished_run_and_the_stand_in_until_the_grids_finishes(
@@ -124,28 +106,47 @@ def test_policies_take_a_finished_run_and_the_stand_in_until_the_grids_finishes(
         P: {"full state": f"{STAND_IN}{P}/acder/seed0", "simplified state": None},
         PP: {"full state": None, "simplified state": None},
     }
-    lines = policy_lines(got)
-    assert len(lines) == 6
-    assert lines[0] == f"{R:22s} {'full state':17s} results/{R}/acder/seed0"
-    assert lines[3] == f"{P:22s} simplified state  not trained yet"
+    assert full_state_source(got[P]["full state"]) == "stand-in"
 
 
-def test_the_scene_takes_the_simplified_policy_else_the_full_one_and_says_how_it_went():
-    from acder_lite.book.deploy_report import scene_label, scene_sentence
+def _bench(rows):
+    return dict(
+        trials=20,
+        rows=[
+            dict(knob=k, level=lvl, successes=s, trials=20, nominal=nom)
+            for k, lvl, s, nom in rows
+        ],
+    )
+
+
+def test_counts_nominal_and_perturbed_readings_of_a_bench():
+    b = _bench(
+        [
+            ("action_delay", 2, 6, False),  # the nominal row need not come first
+            ("action_delay", 0, 19, True),
+            ("mass", 2.0, 18, False),
+            ("mass", 1.0, 19, True),
+        ]
+    )
+    flat = counts({("FetchPush-v4", "full state"): b})
+    assert flat[("FetchPush-v4", "full state", "action_delay", 2)] == 6
+    assert flat[("FetchPush-v4", "full state", "action_delay", 2.0)] == 6
+    assert flat[("FetchPush-v4", "full state", "mass", 1.0)] == 19
+    assert nominal_successes(b) == 19
+    assert perturbed_rate(b) == pytest.approx((6 / 20 + 18 / 20) / 2)
+    with pytest.raises(ValueError):
+        nominal_successes(_bench([("mass", 2.0, 18, False)]))
+    with pytest.raises(ValueError):
+        perturbed_rate(_bench([("mass", 1.0, 18, True)]))
+
+
+def test_the_scene_takes_the_simplified_policy_else_the_full_one():
+    from acder_lite.book.deploy_report import scene_label
 
     both = {"full state": "results/x", "simplified state": "experiments/deploy/x"}
     assert scene_label(both) == "simplified state"
     assert scene_label(dict(both, **{"simplified state": None})) == "full state"
     assert scene_label({"full state": None, "simplified state": None}) is None
-    assert scene_sentence("FetchPush-v4", "simplified state", True) == (
-        "The simplified-state policy succeeds in this episode."
-    )
-    assert scene_sentence("FetchPush-v4", "full state", False) == (
-        "The full-state policy fails in this episode."
-    )
-    assert scene_sentence("FetchPush-v4", None, None) == (
-        "No Push policy has finished training, so there is no scene."
-    )
 
 
 def test_policy_clips_as_the_policy_records_them_else_the_training_defaults():
@@ -156,56 +157,28 @@ def test_policy_clips_as_the_policy_records_them_else_the_training_defaults():
     assert policy_clips(None) == (Config().clip_obs, Config().norm_clip)
 
 
-def test_full_state_sentence_without_a_stand_in_names_the_unfinished_tasks():
-    """No stand-in, but a task with no finished full-state policy: the sentence must
-    not say every task's policy is the grid's own run."""
-    R, P = "FetchReach-v4", "FetchPush-v4"
-    folders = {R: f"results/{R}/acder/seed0", P: None}
-    assert full_state_sentence(folders) == (
-        "On Reach the full-state policy is the grid's run; on Push no full-state "
-        "policy has finished."
-    )
+def test_rerun_bench_gives_the_benches_outcomes_from_a_fresh_process(tmp_path):
+    """The command in its own process, on a policy that holds the gripper still, gives
+    the trials `run_bench` gives here; a command that fails raises its output."""
+    from acder_lite.algo.core import Actor
+    from acder_lite.algo.normalizer import Normalizer
+    from acder_lite.book.deploy_report import rerun_bench
+    from acder_lite.deploy.robust import policy_act, run_bench
+    from acder_lite.io import load_policy, save_torch
+    from acder_lite.train.rollout import Policy
 
-
-def test_training_facts_read_the_threshold_and_patience_of_the_runs_stop_rule():
-    """done.json's stop rule (0.90, 3 evaluations) comes before the run's config.json
-    (0.95, 5): the crossing of 0.90 between 0.8 at 800 episodes and 1.0 at 1,200 is
-    read halfway, 800 + 400 * (0.9 - 0.8) / (1.0 - 0.8) = 1,000."""
-    run = _run([0.5, 0.8, 1.0, 1.0, 1.0], "stop rule", "success held")
-    run["done_info"]["stop_rule"] = dict(success_threshold=0.9, patience=3)
-    assert training_facts(run) == dict(
-        crossed="first reached 0.90 at 1,000 episodes",
-        ended="stopped once it had held 0.90 for 3 evaluations, after 5 epochs "
-        "(2,000 episodes)",
-    )
-
-
-def test_a_run_of_one_epoch_reads_1_epoch():
-    """'1 epoch (400 episodes)': the noun follows the epochs, not the episodes."""
-    assert training_facts(_run([0.3], None, None))["ended"] == (
-        "is still training (1 epoch (400 episodes) so far, at 0.30)"
-    )
-
-
-def test_lengths_sentence_compares_the_episodes_not_the_epochs():
-    """Two runs of 4 epochs each, one of 400 episodes an epoch (1,600) and one of 200
-    (800), did not train as long."""
-    full = _run([0.2, 0.4, 0.6, 0.8], "budget", "budget")
-    simplified = _run([0.2, 0.4, 0.6, 0.8], "budget", "budget", per_epoch=200)
-    assert lengths_sentence(
-        "FetchPush-v4", {"full state": full, "simplified state": simplified}
-    ) == (
-        "The Push policies did not train as long: the full-state one 4 epochs (1,600 "
-        "episodes), the simplified-state one 4 epochs (800 episodes), so a "
-        "difference between their columns is one of training as well as of state."
-    )
-
-
-def test_lengths_sentence_at_equal_episodes_in_epochs_of_another_size():
-    """4 epochs of 400 episodes and 8 of 200: as long, and the sentence names the
-    1,600 episodes only (not the first run's "4 epochs" for both)."""
-    long = _run([0.2, 0.4, 0.6, 0.8], "budget", "budget")
-    short = _run([0.1] * 8, "budget", "budget", per_epoch=200)
-    assert lengths_sentence("FetchPush-v4", {"a": long, "b": short}) == (
-        "The Push policies trained as long, 1,600 episodes each."
-    )
+    pol = Policy(Actor(13, 4, 6, 2), Normalizer(10), Normalizer(3), 200.0)
+    for p in pol.actor.parameters():
+        p.data.zero_()  # the zero action: the gripper stays where it starts
+    (tmp_path / "run").mkdir()
+    file = tmp_path / "run" / "policy.pt"
+    save_torch(str(file), {"policy": dict(pol.state_dict("FetchReach-v4", "her"))})
+    got = rerun_bench(tmp_path, "run", ["action_delay=0,1"], trials=3, seed=7)
+    act, obs = policy_act(*load_policy(str(file)))
+    here = run_bench(act, "FetchReach-v4", obs, {"action_delay": [0, 1]}, 3, seed=7)
+    assert [r["trial_success"] for r in got["rows"]] == [
+        r["trial_success"] for r in here["rows"]
+    ]
+    assert got["seed"] == 7 and got["trials"] == 3
+    with pytest.raises(RuntimeError, match="robust"):
+        rerun_bench(tmp_path, "no-such-run", ["mass"], trials=1, seed=0)

@@ -26,7 +26,7 @@ def test_restored_state_reproduces_next_20_steps_exactly(env_id):
 
 
 def test_replay_difference_tells_the_state_specs_and_steps_apart():
-    """Chapter 6's measurement: our state and step replay bit for bit; FULLPHYSICS
+    """The appendix's measurement: our state and step replay bit for bit; FULLPHYSICS
     alone (no warm start) or gymnasium's own step (a substep behind) do not."""
     d, n = E.replay_difference(steps=30)
     assert d.shape == (30,) and n == E.state_size(E.make_env("FetchPickAndPlace-v4"))
@@ -38,9 +38,9 @@ def test_replay_difference_tells_the_state_specs_and_steps_apart():
 
 
 def test_the_replayed_actions_grasp_and_lift_the_block():
-    """Chapter 6 replays a rollout with contacts: `scripted_grasp`'s fingers touch the
-    block (from step 21 of 40 on) and lift it, after random steps (a random arm would
-    not touch it)."""
+    """The appendix replays a rollout with contacts: `scripted_grasp`'s fingers touch
+    the block (from step 21 of 40 on) and lift it, after random steps (a random arm
+    would not touch it)."""
     for seed in (0, 1):
         env = E.make_env("FetchPickAndPlace-v4", seed=seed)
         rng = np.random.default_rng(seed)

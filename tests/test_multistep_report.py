@@ -1,26 +1,28 @@
 """Chapter 9's reading of the multi-step Push runs (acder_lite.book.multistep_report):
-the
-plan, each method's progress, the chance level and the sentences the chapter glues."""
+the plan, each method's progress, the chance level, and the 400-epoch run's state and
+rule, on small synthetic run folders. The chapter writes the sentences; these test
+the numbers it quotes."""
 
-import dataclasses
+import csv
+import json
+import math
 
+import numpy as np
 import pytest
 
 from acder_lite.book import multistep_report as MR
 from acder_lite.book.multistep_report import (
-    acder_note,
     acder_parts,
-    acder_parts_sentence,
-    best_sentence,
-    chance_sentence,
+    block_means,
+    chance_reading,
     evaluation_counts,
+    long_run,
     method_progress,
-    plan_words,
-    progress_sentence,
     read_runs,
-    runs_words,
-    solved_starts_sentence,
-    starts_note,
+    replayed_starts,
+    rule_reading,
+    run_state,
+    same_first_rows,
     task_plan,
     versus_chance,
 )
@@ -28,7 +30,7 @@ from acder_lite.book.multistep_report import (
 ENV = "FetchPushMultiStep-v0"
 
 
-def seed(best, success=None, seed=0):
+def seed(best, success=None, seed=0, tests=3200, test_successes=21):
     return dict(
         seed=seed,
         epoch=40.0,
@@ -38,24 +40,9 @@ def seed(best, success=None, seed=0):
         planned=40,
         ended="budget",
         share=0.1,
-        tests=3200,
-        test_successes=21,
+        tests=tests,
+        test_successes=test_successes,
     )
-
-
-def test_best_sentence_says_whether_any_run_reached_the_threshold():
-    runs = {"DDPG+HER": [seed(0.0375, 0.0)], "DDPG+ACDER": [seed(0.01), seed(0.04, 1)]}
-    assert best_sentence(runs, 0.95) == (
-        "No run reached the 95% threshold at any evaluation."
-    )
-    runs["DDPG+ACDER"].append(seed(0.96, 0.9, 2))
-    assert best_sentence(runs, 0.95) == "Runs of DDPG+ACDER reached the 95% threshold."
-    runs["DDPG+HER"].append(seed(0.95, 0.9, 1))
-    runs["DDPG+X"] = [seed(1.0)]
-    assert best_sentence(runs, 0.95) == (
-        "Runs of DDPG+HER, DDPG+ACDER and DDPG+X reached the 95% threshold."
-    )
-    assert best_sentence({"DDPG+HER": []}, 0.95) == ""
 
 
 def test_versus_chance_by_the_wilson_interval():
@@ -66,27 +53,19 @@ def test_versus_chance_by_the_wilson_interval():
     assert versus_chance(0, 40, 0.0) == "at"  # the interval starts at 0
 
 
-def test_chance_sentence_pools_seeds_and_follows_the_numbers():
-    her = seed(0.0375)
-    acder = dict(seed(0.0375), test_successes=19)
-    s = chance_sentence({"DDPG+HER": [her], "DDPG+ACDER": [acder]}, 66, 10_000)
-    assert s == (
-        "Over all their evaluations DDPG+HER succeeded in 21 of 3,200 test episodes "
-        "(0.66%; 95% interval 0.43% to 1.00%) and DDPG+ACDER succeeded in 19 of 3,200 "
-        "test episodes (0.59%; 95% interval 0.38% to 0.93%). Both blocks already "
-        "start on their targets in 0.66% of the env's resets (66 of 10,000, no step "
-        "taken): taking a rate as above or below that chance level only when its 95% "
-        "Wilson interval lies wholly above or below it, DDPG+HER and DDPG+ACDER are at "
-        "chance, as many successes as episodes that start solved would give."
-    )
+def test_chance_reading_pools_seeds_and_leaves_out_methods_without_runs():
+    her, acder = seed(0.0375), seed(0.0375, test_successes=19)
+    got = chance_reading({"her": [her], "acder": [acder], "x": []}, 66, 10_000)
+    assert list(got) == ["her", "acder"]
+    assert (got["her"]["k"], got["her"]["n"]) == (21, 3200)
+    assert got["her"]["rate"] == pytest.approx(21 / 3200)
+    assert got["her"]["low"] == pytest.approx(0.0043, abs=1e-4)
+    assert got["her"]["high"] == pytest.approx(0.0100, abs=1e-4)
+    assert got["her"]["verdict"] == got["acder"]["verdict"] == "at"
+    assert got["her"]["chance"] == 66 / 10_000
     two = [acder, dict(acder, seed=1, test_successes=200)]  # 219 of 6,400: above
-    s = chance_sentence({"DDPG+HER": [her], "DDPG+ACDER": two}, 66, 10_000)
-    assert "DDPG+ACDER succeeded in 219 of 6,400" in s
-    assert s.endswith(
-        "DDPG+ACDER is above chance; DDPG+HER is at chance, as many "
-        "successes as episodes that start solved would give."
-    )
-    assert chance_sentence({"DDPG+HER": []}, 66, 10_000) == ""
+    got = chance_reading({"acder": two}, 66, 10_000)["acder"]
+    assert (got["k"], got["n"], got["verdict"]) == (219, 6400, "above")
 
 
 def test_evaluation_counts_turn_test_success_into_episodes():
@@ -108,44 +87,9 @@ def test_acder_parts_average_from_the_second_epoch():
     rows += [dict(cols, epoch=2.0), dict(cols, epoch=3.0, novel_start_share=0.7)]
     parts = acder_parts(rows)
     assert parts["first"] == 2.0 and parts["last"] == 3.0
-    assert parts["pool_size"] == 50 and parts["novel_start_share"] == pytest.approx(
-        0.65
-    )
-    s = acder_parts_sentence(parts, "at")
-    assert s.startswith("Averaged over epochs 2 to 3: its start pool held 50")
-    assert acder_parts_sentence(parts, "at", seed=1).startswith(
-        "Seed 1, averaged over epochs 2 to 3: its start pool"
-    )
-    assert "65% of its training episodes restarted" in s
-    assert s.endswith("stayed at chance: nothing it learnt shows at test.")
-    assert "above chance" in acder_parts_sentence(parts, "above")
-    assert acder_parts([rows[0]]) == {} and acder_parts_sentence({}, "at") == ""
-
-
-def test_progress_sentence_gives_each_seeds_last_epoch_and_best():
-    s = progress_sentence("DDPG+HER", [seed(0.0375, 0.0)], 400)
-    assert s == (
-        "DDPG+HER: seed 0 reached epoch 40 of the 40 planned (10% of the paper's "
-        "budget of 400 epochs), test success 0.00 at its last epoch (best 0.04); "
-        "ended: budget."
-    )
-    assert progress_sentence("DDPG+HER", [], 400) == "DDPG+HER: not run yet."
-    assert progress_sentence("DDPG+HER", [], 400, started=True) == (
-        "DDPG+HER: started, no evaluation yet."
-    )
-
-
-def test_solved_starts_sentence_compares_evaluation_by_evaluation():
-    run = dict(
-        seed=0,
-        config=dict(test_episodes=20, workers=4),
-        rows=[dict(test_success=x) for x in (0.0125, 0.0, 0.025)],
-    )
-    assert solved_starts_sentence(run, "DDPG+HER", [1, 1, 2]) == (
-        "DDPG+HER seed 0: 4 of its 240 test episodes started with both blocks on "
-        "their targets, and it had 3 successes; the two counts are equal at 2 of its "
-        "3 evaluations."
-    )
+    assert parts["pool_size"] == 50
+    assert parts["novel_start_share"] == pytest.approx(0.65)
+    assert acder_parts([rows[0]]) == {}
 
 
 PLAN = """
@@ -154,12 +98,19 @@ envs = ["FetchPushMultiStep-v0"]
 methods = ["her", "acder"]
 seeds = [0]
 config = { epochs = 40 }
+root = "../short"
+
+[[group]]
+envs = ["FetchPushMultiStep-v0"]
+methods = ["acder"]
+seeds = [0]
+config = { epochs = 400 }
 
 [[group]]
 envs = ["FetchPushMultiStep-v0"]
 methods = ["acder"]
 seeds = [1]
-hold = "after the grid"
+hold = "after the first"
 
 [[group]]
 envs = ["FetchPush-v4"]
@@ -168,49 +119,196 @@ seeds = [2]
 """
 
 
-def test_task_plan_lists_the_tasks_cells_with_their_share_of_the_paper(tmp_path):
-    (tmp_path / "plan.toml").write_text(PLAN)
-    cells, lines = task_plan(tmp_path / "plan.toml")
-    assert [(c.method, c.seed) for c in cells] == [
-        ("her", 0),
-        ("acder", 0),
-        ("acder", 1),
+def test_task_plan_lists_the_tasks_cells_with_their_folders_and_states(tmp_path):
+    results = tmp_path / "results"
+    results.mkdir()
+    (results / "plan.toml").write_text(PLAN)
+    done = tmp_path / "short" / ENV / "her" / "seed0"
+    done.mkdir(parents=True)
+    (done / "done.json").write_text("{}")
+    cells, lines = task_plan(results / "plan.toml", root=tmp_path)
+    assert [(c.method, c.seed, c.epochs) for c in cells] == [
+        ("her", 0, 40),
+        ("acder", 0, 40),
+        ("acder", 0, 400),
+        ("acder", 1, 400),
     ]
     assert lines == [
-        "DDPG+HER    seed 0: 40 epochs (10% of the paper's)",
-        "DDPG+ACDER  seed 0: 40 epochs (10% of the paper's)",
-        "DDPG+ACDER  seed 1: 400 epochs (100% of the paper's); on hold: after the grid",
+        f"DDPG+HER    seed 0:  40 epochs ( 10% of the paper's)  "
+        f"short/{ENV}/her/seed0: finished",
+        f"DDPG+ACDER  seed 0:  40 epochs ( 10% of the paper's)  "
+        f"short/{ENV}/acder/seed0: planned",
+        f"DDPG+ACDER  seed 0: 400 epochs (100% of the paper's)  "
+        f"results/{ENV}/acder/seed0: planned",
+        f"DDPG+ACDER  seed 1: 400 epochs (100% of the paper's)  "
+        f"results/{ENV}/acder/seed1: planned; on hold: after the first",
     ]
-    one = PLAN.replace(
-        "epochs = 40", "epochs = 1"
-    )  # a try-out: "1 epoch", not "1 epochs"
-    (tmp_path / "plan.toml").write_text(one)
-    assert task_plan(tmp_path / "plan.toml")[1][0] == (
-        "DDPG+HER    seed 0: 1 epoch (0% of the paper's)"
+    one = PLAN.replace("epochs = 40 }", "epochs = 1 }")  # "1 epoch", not "1 epochs"
+    (results / "plan.toml").write_text(one)
+    assert task_plan(results / "plan.toml")[1][0].startswith(
+        "DDPG+HER    seed 0:    1 epoch (  0% of the paper's)"
     )
     cells, lines = task_plan(tmp_path / "missing.toml")
     assert cells == [] and len(lines) == 1 and lines[0].startswith("no plan: ")
     assert "missing.toml" in lines[0]
 
 
-def test_plan_words_follow_the_cells(tmp_path):
-    (tmp_path / "plan.toml").write_text(PLAN)
-    cells, _ = task_plan(tmp_path / "plan.toml")
-    assert plan_words(cells) == dict(
-        plan_epochs="400",
-        plan_share="100%",
-        plan_seeds="seeds 0 and 1",
-        seeds_note="With 2 seeds a curve is a mean of few draws",
+def write_run(folder, successes, done=None, epochs=400, **columns):
+    """A run folder as `train` writes it: config.json, a progress.csv of one row per
+    epoch with `successes` as test success and each of `columns` (a list of values per
+    row), and, with `done` (a stop_reason), done.json."""
+    folder.mkdir(parents=True, exist_ok=True)
+    cfg = dict(env=ENV, method="acder", seed=0, epochs=epochs, cycles=50,
+               episodes_per_cycle=2, workers=4, test_episodes=20)  # fmt: skip
+    command = f"python -m acder_lite train --epochs {epochs}"
+    (folder / "config.json").write_text(json.dumps(dict(config=cfg, command=command)))
+    names = ["epoch", "episodes", "test_success", "wall_s", *columns]
+    with open(folder / "progress.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(names)
+        for i, s in enumerate(successes):
+            extra = [columns[c][i] for c in columns]
+            w.writerow([i + 1, 400 * (i + 1), s, 10.0 * (i + 1), *extra])
+    if done:
+        info = dict(epochs=float(len(successes)), stop_reason=done)
+        (folder / "done.json").write_text(json.dumps(info))
+    return folder
+
+
+def test_run_state_follows_what_the_folder_holds(tmp_path):
+    run = tmp_path / ENV / "acder" / "seed0"
+    assert run_state(run) == "planned"
+    run.mkdir(parents=True)
+    assert run_state(run) == "started"
+    (run / "config.json").write_text("{}")
+    assert run_state(run) == "started"  # config.json, no evaluation yet
+    write_run(run, [0.0, 0.0125])
+    assert run_state(run) == "in flight"
+    (run / "done.json").write_text("{}")
+    assert run_state(run) == "finished"
+    assert MR.RUN_STATES == ("planned", "started", "in flight", "finished")
+
+
+BLOCKS = dict(
+    block0_on_target=[0.05, 0.10, 0.20],
+    block1_on_target=[0.0, 0.05, 0.10],
+    block0_moved=[0.1, 0.3, 0.5],
+    block1_moved=[0.0, 0.2, 0.4],
+    pool_block_on_target=["nan", 0.2, 0.4],
+)
+
+
+def test_long_run_in_flight_reads_its_rows_and_per_block_columns(tmp_path):
+    """The 400-epoch run between sessions: progress.csv with per-block columns (the
+    pool's share NaN at the first evaluation, the pool still empty), no done.json."""
+    folder = write_run(tmp_path / "acder" / "seed0", [0.0, 0.0125, 0.0], **BLOCKS)
+    got = long_run(folder)
+    assert got["state"] == "in flight" and got["epoch"] == 3.0
+    assert got["planned"] == 400 and got["run"]["ended"] is None
+    assert got["versions"] == {}  # write_run records none
+    rows = got["run"]["rows"]
+    assert math.isnan(rows[0]["pool_block_on_target"])
+    means = block_means(rows)
+    assert means["block0_on_target"] == pytest.approx(0.35 / 3)
+    assert means["pool_block_on_target"] == pytest.approx(0.3)  # the NaN left out
+    assert (means["first"], means["last"]) == (1.0, 3.0)
+    last = block_means(rows, last=2)
+    assert last["block1_moved"] == pytest.approx(0.3) and last["first"] == 2.0
+    assert math.isnan(block_means(rows[:1])["pool_block_on_target"])
+
+
+def test_long_run_without_an_evaluation_has_no_run(tmp_path):
+    assert long_run(tmp_path / "nowhere") == dict(
+        state="planned", run=None, epoch=0.0, planned=None, versions={}
     )
-    one = plan_words(cells[:2])
-    assert (one["plan_epochs"], one["plan_share"]) == ("40", "10%")
-    assert one["plan_seeds"] == "seed 0"
-    assert one["seeds_note"] == "With one seed a curve is one draw"
-    three = [dataclasses.replace(cells[0], seed=k) for k in (2, 0, 1)]
-    assert plan_words(three)["plan_seeds"] == "seeds 0, 1 and 2"
-    none = plan_words([])
-    assert (none["plan_seeds"], none["plan_epochs"]) == ("no seed yet", "0")
-    assert none["seeds_note"] == "With no seed planned there is no curve yet"
+    started = tmp_path / "started"
+    started.mkdir()
+    assert long_run(started)["state"] == "started"
+    assert long_run(started)["run"] is None
+
+
+def test_long_run_finished_by_its_budget(tmp_path):
+    folder = write_run(tmp_path / "r", [0.0, 0.0, 0.0], done="budget", epochs=3)
+    got = long_run(folder)
+    assert got["state"] == "finished" and got["run"]["ended"] == "budget"
+
+
+def test_block_means_of_runs_without_per_block_columns_is_empty(tmp_path):
+    """The 40-epoch runs were trained before the per-block columns existed."""
+    folder = write_run(tmp_path / "r", [0.0, 0.0125])
+    assert block_means(long_run(folder)["run"]["rows"]) == {}
+    assert block_means([]) == {}
+
+
+def rows_of(successes):
+    return [dict(epoch=float(e), test_success=s) for e, s in enumerate(successes, 1)]
+
+
+def test_rule_reading_needs_five_consecutive_evaluations_at_the_level():
+    at_chance = rule_reading(rows_of([0.0125, 0.0, 0.0375, 0.0]))
+    assert at_chance == dict(
+        met=False, met_at=None, longest=0, streak=0, best=0.0375, evaluations=4
+    )
+    four = rule_reading(rows_of([0.1, 0.2, 0.1, 0.15, 0.05, 0.1, 0.1]))
+    assert (four["met"], four["longest"], four["streak"]) == (False, 4, 2)
+    held = rule_reading(rows_of([0.0, 0.1, 0.1, 0.1, 0.1, 0.1, 0.3, 0.0]))
+    assert (held["met"], held["met_at"], held["longest"]) == (True, 6.0, 6)
+    assert held["streak"] == 0  # it fell back since: the rule was met all the same
+    assert rule_reading([])["best"] == 0.0 and not rule_reading([])["met"]
+    assert rule_reading(rows_of([0.099] * 9))["longest"] == 0  # below 0.10
+
+
+def test_rule_reading_in_a_synthetic_finished_run(tmp_path):
+    folder = write_run(tmp_path / "r", [0.0] + [0.125] * 5, done="budget", epochs=6)
+    got = rule_reading(long_run(folder)["run"]["rows"])
+    assert got["met"] and got["met_at"] == 6.0
+
+
+def test_same_first_rows_compares_the_rows_and_columns_both_have(tmp_path):
+    short = write_run(tmp_path / "short", [0.0125, 0.0], epochs=40)
+    long = write_run(tmp_path / "long", [0.0125, 0.0, 0.0], **BLOCKS)
+    a, b = (long_run(x)["run"]["rows"] for x in (short, long))
+    assert same_first_rows(a, b) == []  # per-block columns: only the long run's
+    b[1] = dict(b[1], test_success=0.0125, wall_s=99.0)  # wall_s is the timing
+    assert same_first_rows(a, b) == [(2.0, "test_success", 0.0, 0.0125)]
+    nan = [dict(epoch=1.0, x=float("nan"))]
+    assert same_first_rows(nan, nan) == []
+
+
+def test_replayed_starts_counts_evaluation_by_evaluation():
+    run = dict(
+        seed=0,
+        config=dict(seed=0, test_episodes=20, workers=1),
+        rows=[dict(test_success=x) for x in (0.05, 0.0, 0.1)],
+    )
+    from acder_lite.book.pusher import solved_test_starts
+
+    solved = [int(x) for x in solved_test_starts(run["config"], 3)]
+    got = replayed_starts(run)
+    assert got["per_evaluation"] == list(zip(solved, [1, 0, 2]))
+    assert (got["solved"], got["successes"], got["tests"]) == (sum(solved), 3, 60)
+    assert got["equal"] == sum(s == w for s, w in zip(solved, [1, 0, 2]))
+    assert got["evaluations"] == 3
+    assert got["more"] + got["fewer"] + got["equal"] == 3
+    assert got["more"] == sum(w > s for s, w in zip(solved, [1, 0, 2]))
+
+
+def test_rule_chance_is_the_binomial_tail_at_the_level():
+    one, five = MR.rule_chance(0.5, 10, level=0.9, evaluations=2)
+    assert one == pytest.approx(11 / 1024)  # 9 or 10 heads of 10
+    assert five == pytest.approx((11 / 1024) ** 2)
+    one, _ = MR.rule_chance(0.0066, 80)  # 8 of 80: 0.10 exactly, ceil not off by one
+    assert one == pytest.approx(6.84e-8, rel=1e-2)
+    assert MR.rule_chance(0.0, 80) == (0.0, 0.0) and MR.rule_chance(1.0, 80)[0] == 1.0
+
+
+def test_start_on_targets_counts_each_block():
+    from acder_lite.book.pusher import start_on_targets
+
+    got = start_on_targets([0], 300)
+    assert got["each"].shape == (300, 1, 2)
+    np.testing.assert_array_equal(got["one"], got["each"].any(axis=-1))
+    np.testing.assert_array_equal(got["both"], got["each"].all(axis=-1))
 
 
 def test_read_runs_names_what_it_skips_relative_to_the_root(tmp_path):
@@ -234,63 +332,13 @@ def a_run(name, successes, seed=0, ended="budget", **columns):
                 planned_epochs=40, config=config)  # fmt: skip
 
 
-def test_runs_words_say_each_methods_progress_then_the_outcome(tmp_path):
-    (tmp_path / "acder").mkdir()  # started, no evaluation yet
+def test_method_progress_keeps_the_chapters_methods_in_order():
     runs = [a_run("her", [0.0, 0.5]), a_run("her-icm", [1.0])]
     progress = method_progress(runs)
     assert list(progress) == ["her", "acder"] and progress["acder"] == []
-    assert [s["tests"] for s in progress["her"]] == [4]
-    words = runs_words(progress, tmp_path, 66, 10_000)
-    her = progress_sentence("DDPG+HER", progress["her"], 400)
-    assert her.startswith("DDPG+HER: seed 0 reached epoch 2 of the 40 planned (0.5%")
-    outcome = words["runs_outcome"]
-    assert outcome.startswith("No run reached the 95% threshold at any evaluation. ")
-    assert "DDPG+HER succeeded in 1 of 4 test episodes" in outcome
-    assert "DDPG+ACDER succeeded" not in outcome  # her-icm is no method of the chapter
-    assert words["runs_note"] == (
-        f"{her} DDPG+ACDER: started, no evaluation yet. {outcome}"
-    )
-    none = runs_words(method_progress([]), tmp_path / "nowhere", 66, 10_000)
-    assert none == dict(
-        runs_outcome=MR.NOTHING_YET,
-        runs_note="DDPG+HER: not run yet. DDPG+ACDER: not run yet. "
-        "There is nothing to plot yet.",
-    )
-
-
-def test_starts_note_replays_each_run_in_the_chapters_order():
-    runs = [a_run("acder", [0.0, 0.5]), a_run("her-icm", [0.0, 0.0])]
-    runs += [a_run("her", [0.0, 0.0]), a_run("her", [], seed=1)]  # seed 1: no rows
-    note = starts_note(runs)
-    heads = ("DDPG+HER seed 0: ", "DDPG+ACDER seed 0: ", "her-icm seed 0: ")
-    at = [note.index(h) for h in heads]
-    assert at == sorted(at) and "seed 1" not in note
-    assert note.count("of its 4 test episodes started with both blocks") == 3
-    assert "and it had 1 successes" in note  # DDPG+ACDER's 0.5 of 2 episodes
-    assert starts_note([]) == "There is no run to replay yet."
-
-
-def test_acder_note_reads_each_acder_run_against_chance():
-    cols = dict(pool_size=50, alpha=0.68, novel_start_share=0.6, train_success=0.01)
-    cols.update(r_int_mean=0.003, lambda_mean=1.2)
-    late = a_run("acder", [0.0, 0.5, 0.0], seed=3, **cols)  # 1 of 6: above 0
-    runs = [a_run("her", [0.0, 0.5, 0.0], **cols), late]
-    note = acder_note(runs, chance=0.0)
-    assert note == acder_parts_sentence(acder_parts(late["rows"]), "above", 3)
-    assert note.startswith("Seed 3, averaged over epochs 2 to 3: ")
-    assert acder_note(runs, chance=0.5).endswith("stayed at chance: nothing it "
-                                                 "learnt shows at test.")  # fmt: skip
-    early = a_run("acder", [0.0], **cols)  # epoch 1 only: no parts to average yet
-    fallback = "There is no DDPG+ACDER run to read yet."
-    assert acder_note([early], 0.0) == acder_note(runs[:1], 0.0) == fallback
-
-
-def test_best_sentence_counts_a_best_exactly_at_the_threshold():
-    """The threshold is reached at or above it (as the stop rule reads it): a best of
-    exactly 0.95 reached 95%."""
-    assert best_sentence({"DDPG+HER": [seed(0.95)]}, 0.95) == (
-        "Runs of DDPG+HER reached the 95% threshold."
-    )
+    (her,) = progress["her"]
+    assert (her["tests"], her["test_successes"], her["best"]) == (4, 1, 0.5)
+    assert her["share"] == pytest.approx(800 / 160_000)
 
 
 def test_versus_chance_at_the_edges_of_the_interval_is_at():

@@ -1,6 +1,6 @@
 """Chapter 4's reading of familiar against unseen transitions (acder_lite.book.novelty):
 S-ICM's errors on whole episodes, the sets and their shares at the clip, and the
-sentences that say what they show, from numbers worked by hand. The figures of them:
+start-state rule's criterion on them, from numbers worked by hand. The figures of them:
 test_plots.py."""
 
 import numpy as np
@@ -38,57 +38,21 @@ def test_episode_errors_are_eq4_of_each_step(sicm_input):
 
 
 @pytest.mark.parametrize(
-    "familiar, new, said, keeps",
+    "familiar, new, keeps",
     [
-        (0.6, 0.9, "most raw errors sit at the clip", False),  # both above a half
-        (0.4, 0.6, "most of the new raw errors sit at the clip", False),
-        (0.6, 0.4, "most of the familiar raw errors sit at the clip", False),
-        (0.5, 0.5, "most raw errors fall below it", True),  # a half is not most
-        (0.0, 0.0, "no raw error here reaches it, so it ranks every state", True),
-        (0.0, 0.01, "most raw errors fall below it", True),  # a few reach it
+        (0.6, 0.9, False),  # both above a half
+        (0.4, 0.6, False),  # most new errors tie at the clip
+        (0.6, 0.4, False),
+        (0.5, 0.5, True),  # a half is not most
+        (0.0, 0.0, True),  # no error reaches it: it still ranks every state
+        (0.0, 0.01, True),  # a few reach it
     ],
 )
-def test_clip_effect_keeps_the_novelty_gap_where_most_errors_fall_below(
-    familiar, new, said, keeps
-):
+def test_keeps_gap_where_most_errors_fall_below(familiar, new, keeps):
     """The start-state rule's criterion (chapter 8, departure 6): a clip that most
     errors of either set reach makes their r^i a tie; one that none reaches still
     ranks every state."""
-    text, ok = N.clip_effect(familiar, new, "raw")
-    assert text.startswith(said) and ok is keeps
-
-
-def test_novelty_contrast_says_what_the_numbers_show():
-    med = {"normalised": [0.08, 0.11, 3.5, 2.5], "raw": [7e-4, 1.1e-3, 3e-3, 7.4e-3]}
-    at = {"normalised": (0.035, 0.01), "raw": (0.0, 0.0)}
-    c = N.novelty_contrast(med, at, 0.8)
-    assert c["scripted"].startswith("On both inputs the scripted excursions")
-    assert "31 to 44 times the familiar one on normalised inputs" in c["scripted"]
-    assert "4.3 to 11 times on raw ones" in c["scripted"]
-    assert c["new"].startswith("Fresh exploration comes closer")
-    assert "1.4 times the familiar one on normalised inputs" in c["new"]
-    assert c["tail"] == (
-        "familiar transitions reach the clip more often than new ones on normalised "
-        "inputs (3.5% against 1%), while neither familiar nor new transitions "
-        "reach it on raw inputs"
-    )
-    assert c["summary"].startswith("on both inputs the scripted excursions are")
-    assert "1.4 to 1.6 times the familiar one; and at η = 0.8, familiar" in c["summary"]
-    # a scripted set below fresh exploration; new transitions at the clip more often
-    med["raw"][2], at["raw"] = 1e-3, (0.1, 0.2)
-    c = N.novelty_contrast(med, at, 0.8)
-    assert c["scripted"].startswith("Only on normalised inputs are the scripted")
-    assert c["new"].startswith("Fresh exploration does not come closer")
-    assert c["tail"].endswith(
-        "new transitions reach it more often than familiar "
-        "ones on raw inputs (20% against 10%)"
-    )
-    med["normalised"][3] = 0.05
-    assert N.novelty_contrast(med, at, 0.8)["summary"].startswith(
-        "on no input are the scripted excursions predicted worse"
-    )
-    with pytest.raises(ValueError, match="scripted"):
-        N.novelty_contrast({"raw": [1.0, 2.0]}, {"raw": (0.0, 0.0)}, 0.8)
+    assert N.keeps_gap(familiar, new) is keeps
 
 
 def test_episode_errors_need_sicm():
@@ -157,15 +121,6 @@ def test_medians_and_shares_at_the_clip_count_errors_at_or_above_eta():
     assert [list(s) for s in kept.values()] == [[N.NEW, N.FAMILIAR]] * 2
 
 
-def test_scale_words_span_each_inputs_medians_and_mark_the_default():
-    med = {"normalised": [0.174, 0.298, 1.07, 2.66], "raw": [0.00693, 0.163, 0.011]}
-    assert N.scale_words(med, "raw") == (
-        "0.17 to 2.7 on normalised inputs and 0.0069 to 0.16 on raw inputs "
-        "(the default)"
-    )
-    assert "(the default)" not in N.scale_words(med, "sincos")
-
-
 def test_clip_shares_table_and_readings_of_the_paper_etas():
     sat = N.clip_shares(sets_by_hand(), (0.05, 0.8))
     assert list(sat) == [
@@ -185,45 +140,10 @@ def test_clip_shares_table_and_readings_of_the_paper_etas():
         ["normalised", "75%", "75%", "25%", "75%"],
         ["raw", "0%", "25%", "0%", "0%"],
     ]
-    readings, keeps = N.clip_readings(sat)
-    assert list(readings) == [0.05, 0.8]
-    assert readings[0.8] == (
-        "most of the new normalised errors sit at the clip, where they tie, while no "
-        "raw error here reaches it, so it ranks every state and only bounds outliers "
-        "not seen here"
-    )
-    assert keeps == {"normalised": False, "raw": True}
+    # normalised: 75% of the new errors tie at eta = 0.8; raw: a quarter at 0.05
+    assert N.gaps_kept(sat) == {"normalised": False, "raw": True}
     sat["raw", "new", 0.05] = 0.6  # raw fails at 0.05 only: one eta is enough
-    assert N.clip_readings(sat)[1] == {"normalised": False, "raw": False}
-
-
-@pytest.mark.parametrize(
-    "keeps, said",
-    [
-        ({"normalised": True, "raw": True}, "Both of the paper's values keep the "
-         "novelty gap on either input"),
-        ({"normalised": False, "raw": True}, "Both of the paper's values keep the "
-         "novelty gap only on raw inputs"),
-        ({"normalised": False, "raw": False}, "On neither input do both of the "
-         "paper's values keep the novelty gap"),
-    ],
-)  # fmt: skip
-def test_eta_verdict(keeps, said):
-    assert N.eta_verdict(keeps) == said
-
-
-def test_loss_path_from_each_inputs_first_row_to_its_last():
-    rows = {
-        "normalised": [
-            dict(curiosity_loss=0.5234),
-            dict(curiosity_loss=0.9),  # a middle row says nothing
-            dict(curiosity_loss=0.01234),
-        ],
-        "raw": [dict(curiosity_loss=2e-4), dict(curiosity_loss=3e-5)],
-    }
-    assert N.loss_path(rows) == (
-        "0.523 to 0.0123 on normalised and 0.0002 to 3e-05 on raw"
-    )
+    assert N.gaps_kept(sat) == {"normalised": False, "raw": False}
 
 
 def test_ratio_table_puts_each_median_over_the_familiar_one():

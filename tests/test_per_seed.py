@@ -1,6 +1,5 @@
 """One seed's reading for chapter 7 (acder_lite.book.per_seed): each seed's first
-crossing
-of the threshold, and how the live runs ended."""
+crossing of the threshold."""
 
 
 def test_seed_crossings_reads_each_seeds_first_crossing():
@@ -24,25 +23,19 @@ def test_seed_crossings_reads_each_seeds_first_crossing():
     assert out[0] == dict(seed=0, hit=None, best=0.3, episodes=800.0)
     assert out[1] == dict(seed=1, hit=800.0, best=0.96, episodes=1200.0)
     assert seed_crossings(runs, "FetchPush-v4", "her-per", 0.95) == []
-    from acder_lite.book.per_seed import crossing_text
-
-    assert [crossing_text(s) for s in out] == [
-        "seed 0: not reached (best 0.30 in 800)",
-        "seed 1: 800",
-    ]
 
 
-def test_live_ended_names_the_runs_that_stopped_and_a_stop_rule_that_could_not():
-    from acder_lite.book.per_seed import live_ended
+def test_a_crossing_exactly_at_the_threshold_counts_and_the_first_one_is_kept():
+    """At or above: a seed evaluated at exactly 0.95 has crossed there; a later, higher
+    evaluation does not move its crossing."""
+    from acder_lite.book.per_seed import seed_crossings
 
-    both = {"acder": (40, None), "her": (36, None)}
-    assert live_ended(both, 5, 5) == "both ran the full 40 episodes"
-    assert live_ended(both, 4, 5) == (
-        "both ran the full 40 episodes (each run's 4 evaluations: the stop rule"
-        " needs 5)"
+    rows = [dict(episodes=40.0 * k, test_success=v) for k, v in [(1, 0.5), (2, 0.95),
+            (3, 0.9), (4, 1.0)]]  # fmt: skip
+    (s,) = seed_crossings(
+        [dict(env="FetchPush-v4", name="acder", seed=0, rows=rows)],
+        "FetchPush-v4",
+        "acder",
+        0.95,
     )
-    ends = {"acder": (24, "success held"), "her": (40, "budget")}
-    assert live_ended(ends, 12, 5) == (
-        "acder stopped early, after 24 episodes (success held); her stopped early,"
-        " after 40 episodes (budget)"
-    )
+    assert s == dict(seed=0, hit=80.0, best=1.0, episodes=160.0)

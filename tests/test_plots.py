@@ -595,3 +595,30 @@ def test_table_bars_ours_beside_the_papers_a_bound_open_with_an_arrow():
     assert "the paper's" in legend and "95% bootstrap interval" in legend
     assert "Table I's unit" in push.get_ylabel() and pick.get_ylabel() == ""
     plt.close(fig)
+
+
+def test_r_int_over_training_a_line_per_seed_skips_missing_values_marks_the_demo():
+    """One line per run, by seed, of r_int_mean against episodes (a row without the
+    column, e.g. a first evaluation before any update, is left out), the clip eta as
+    a dashed line, and the chapter's own short run as a star."""
+    runs = [
+        {"seed": 1, "rows": [{"episodes": 400, "r_int_mean": 0.01}]},
+        {
+            "seed": 0,
+            "rows": [
+                {"episodes": 400, "r_int_mean": 0.012},
+                {"episodes": 800, "r_int_mean": None},
+                {"episodes": 1200, "r_int_mean": 0.15},
+            ],
+        },
+    ]
+    fig, ax = plt.subplots()
+    plots.r_int_over_training(ax, runs, eta=0.8, demo=(64, 0.002))
+    seed0, seed1, eta, demo = ax.lines
+    assert seed0.get_label() == "seed 0" and list(seed0.get_xdata()) == [400, 1200]
+    assert list(seed0.get_ydata()) == [0.012, 0.15]
+    assert seed1.get_label() == "seed 1"
+    assert list(eta.get_ydata()) == [0.8, 0.8] and eta.get_linestyle() == "--"
+    assert list(demo.get_xdata()) == [64] and demo.get_marker() == "*"
+    assert ax.get_yscale() == "log"
+    plt.close(fig)

@@ -1,6 +1,5 @@
 """Chapter 1's random arm (acder_lite.book.random_play): what a random policy's episodes
-count, drawn from the caller's generator, and how the tasks' success rates are
-worded."""
+count, drawn from the caller's generator."""
 
 import numpy as np
 import pytest
@@ -37,17 +36,6 @@ def test_random_episode_stats_draws_from_the_callers_generator():
         random_episode_stats("FetchReach-v4", 1, rng, workers=2)
 
 
-def test_success_rank_ties_rates_that_print_alike():
-    from acder_lite.book.random_play import success_rank
-
-    # 2.0% and 2.00004% print alike: a tie, though push > reach as floats
-    assert success_rank(0.0200004, 0.02) == (
-        "The success rates do not even tell Push from Reach"
-    )
-    assert success_rank(0.03, 0.02) == "The success rates even rank Push above Reach"
-    assert success_rank(0.02, 0.03) == "The success rates rank Reach above Push"
-
-
 def test_episode_stats_on_hand_made_episodes():
     """Chapter 1's counts: solved at the reset, earned, near at some step, moved."""
     from acder_lite.envs import fetch as E
@@ -79,14 +67,3 @@ def test_random_policy_draws_each_entry_uniform_in_minus_one_to_one():
         u, np.random.default_rng(7).uniform(-1.0, 1.0, (200, 4))
     )
     assert u.min() < -0.9 and u.max() > 0.9  # 800 draws reach both ends of the box
-
-
-def test_luck_quantifier_says_all_when_no_object_success_was_earned():
-    from acder_lite.book.random_play import luck_quantifier
-
-    assert luck_quantifier(25, 0) == "all"
-    assert luck_quantifier(25, 12) == "most"  # 13 of 25 were luck
-    assert luck_quantifier(24, 12) == "some"
-    assert luck_quantifier(0, 0) == "all"
-    with pytest.raises(ValueError, match="earned 3"):
-        luck_quantifier(2, 3)

@@ -6,8 +6,7 @@ gripper displacement by an azimuth and an elevation, `rotated_actions` scores it
 round the horizontal plane (the line of the chapter's figure), `random_actions` scores
 actions drawn uniformly from the action box (the dots and the histogram) beside their
 angle to the goal, and `corner_factors` scores the directions of two corners of that
-box (`CORNERS`). `lam_vs_random` says how the relabelled rows of a minibatch compare
-with the random actions. The figures of them: `plots.factor_curve`,
+box (`CORNERS`). The figures of them: `plots.factor_curve`,
 `plots.factor_minibatch` and `plots.factor_against_block`.
 
 Trap: uniform actions fill a cube, not a sphere, so their directions are not uniform:
@@ -71,19 +70,3 @@ def corner_factors(goal) -> np.ndarray:
     for a goal along +x, 1 + arccos(1/sqrt(3)) / (2 pi) and 1 + arccos(-1/sqrt(3)) /
     (2 pi)."""
     return _from_origin(goal, CORNERS)
-
-
-def lam_vs_random(lam_batch: float, lam_random: float) -> str:
-    """How the mean factor of a FetchReach minibatch's relabelled rows, `lam_batch`,
-    compares with that of random actions, `lam_random`: the words that finish the
-    chapter's "It is ...", "lower, because ..." or "not lower: ..."."""
-    # compared as the prose prints them, to 3 decimals
-    if round(float(lam_batch), 3) < round(float(lam_random), 3):
-        return (
-            "lower, because in FetchReach the relabelled goal is a *later* gripper"
-            " position, so the actions that led there tend to point at it"
-        )
-    return (
-        "not lower: in this minibatch the actions do not point at the relabelled"
-        " goal (a *later* gripper position) more often than random ones would"
-    )

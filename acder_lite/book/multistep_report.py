@@ -1,5 +1,6 @@
-"""Reading the multi-step Push runs for chapter 9: progress per method, the chance
-level, the sentences the chapter glues.
+"""Reading the multi-step Push runs for chapter 9: the plan, each run's progress, the
+chance level, and the rule that decides what runs after the 400-epoch ACDER run. The
+chapter writes the sentences; this module only computes what they quote.
 
 The chance level is the share of the env's resets that already put both blocks on
 their targets (`pusher.start_on_targets`): an episode that starts so ends solved if
@@ -7,35 +8,68 @@ the arm leaves the blocks alone, so a test success near that share shows nothing
 learnt. A rate is called above (below) chance only when its 95% Wilson interval lies
 wholly above (below) it (`versus_chance`).
 
-The chapter's flow: `task_plan` and `plan_words` (what results/plan.toml plans),
-`read_runs` and `method_progress` (how far each seed got), `runs_words` (the outcome
-against the threshold and chance), `starts_note` and `acder_note` (the test episodes
-replayed, what ACDER's parts did); `plots.chance_panel` draws the curves.
+Two sets of runs: DDPG+HER and DDPG+ACDER at 40 epochs (a tenth of the paper's
+budget), finished, in `SHORT_ROOT`; DDPG+ACDER at the paper's 400 epochs in
+`LONG_ROOT`, which may be planned, in flight or finished when the chapter is built
+(`run_state`). results/README.md's rule ("The paper's fourth claim at its own
+budget") reads the 400-epoch run: `rule_reading`.
+
+The chapter's flow: `task_plan` (what results/plan.toml plans, where, how far each
+folder got); `read_runs`, `method_progress` and `chance_reading` (the 40-epoch runs
+against chance); `replayed_starts` (their test episodes replayed without the policy);
+`acder_parts` (what ACDER's parts did); `long_run`, `rule_reading`, `rule_chance`,
+`block_means` and `same_first_rows` (the 400-epoch run). `plots.chance_panel` and
+`plots.block_panels` draw the curves.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
-from acder_lite.book.utils import percent, percent_range
 from acder_lite.config import TASK_PRESETS
-from acder_lite.envs.multistep import ENV_ID
+from acder_lite.envs.multistep import BLOCK_COLUMNS, ENV_ID, POOL_COLUMN
 from acder_lite.stats.trial_stats import wilson_interval
-from acder_lite.words import and_join, count
+from acder_lite.words import count
 
 METHODS = {"her": "DDPG+HER", "acder": "DDPG+ACDER"}
 """The methods chapter 9 runs on the task, by run folder name, with their labels, in the
 order the chapter reads them."""
 
-NOTHING_YET = "There is nothing to plot yet."
-"""`runs_words`' outcome while no method has an evaluation."""
+SHORT_ROOT = "experiments/multistep-40"
+"""Where the 40-epoch runs are, relative to the repository (its README says why)."""
+LONG_ROOT = "results"
+"""Where the runs at the paper's 400 epochs are, relative to the repository."""
+RULE_LEVEL = 0.10
+"""results/README.md's rule: the both-block test success that counts as clearly above
+chance..."""
+RULE_EVALUATIONS = 5
+"""...when it holds at this many consecutive epoch evaluations."""
+RUN_STATES = ("planned", "started", "in flight", "finished")
+"""What a run folder holds (`run_state`): nothing; config.json but no evaluation yet;
+evaluations but no done.json; done.json."""
 
 
-def task_plan(path, env: str = ENV_ID, labels: dict | None = None):
+def run_state(folder: str | Path) -> str:
+    """One of `RUN_STATES` for a run folder: 'planned' (no folder), 'started' (no
+    progress.csv yet), 'in flight' (progress.csv, no done.json: still training, or
+    waiting between sessions) or 'finished' (done.json)."""
+    folder = Path(folder)
+    if (folder / "done.json").is_file():
+        return "finished"
+    if (folder / "progress.csv").is_file():
+        return "in flight"
+    return "started" if folder.is_dir() else "planned"
+
+
+def task_plan(
+    path, env: str = ENV_ID, labels: dict | None = None, root: Path | None = None
+):
     """The cells of the plan file `path` (`plan.read_plan`) that run `env`, with a line
     for each: its method's label (`labels`, default `METHODS`), its seed, its epochs
-    and their share of the paper's, and why it is on hold if it is. Returns (cells,
-    lines); ([], ["no plan: why"]) when the file cannot be read or is no plan."""
+    and their share of the paper's, its folder (relative to `root` when given) and its
+    `run_state`, and why it is on hold if it is. Returns (cells, lines);
+    ([], ["no plan: why"]) when the file cannot be read or is no plan."""
     from acder_lite.runs.plan import PlanError, read_plan
 
     labels = labels or METHODS
@@ -47,35 +81,15 @@ def task_plan(path, env: str = ENV_ID, labels: dict | None = None):
     lines = []
     for c in cells:
         name = labels.get(c.method, c.method)
+        out = Path(c.out)
+        if root is not None and Path(root).resolve() in out.resolve().parents:
+            out = out.resolve().relative_to(Path(root).resolve())
         lines.append(
-            f"{name:11s} seed {c.seed}: {count(c.epochs, 'epoch')} "
-            f"({c.epochs / paper:.0%} of the paper's)"
+            f"{name:11s} seed {c.seed}: {count(c.epochs, 'epoch'):>10s} "
+            f"({c.epochs / paper:4.0%} of the paper's)  {out}: {run_state(c.out)}"
             + (f"; on hold: {c.hold}" if c.hold else "")
         )
     return cells, lines
-
-
-def plan_words(cells: list, env: str = ENV_ID) -> dict[str, str]:
-    """What the chapter glues about the planned `cells` of `env` (`task_plan`):
-    plan_epochs, the most epochs a cell plans (0 without cells); plan_share, their
-    share of the paper's; plan_seeds ("seed 0", "seeds 0, 1 and 2", "no seed yet");
-    seeds_note, what that many seeds make of a curve."""
-    most = max((c.epochs for c in cells), default=0)
-    seeds = sorted({c.seed for c in cells})
-    n = len(seeds)
-    words = f"seed{'s' if n > 1 else ''} " + and_join([str(s) for s in seeds])
-    return dict(
-        plan_epochs=f"{most}",
-        plan_share=f"{most / TASK_PRESETS[env]['epochs']:.0%}",
-        plan_seeds=words if seeds else "no seed yet",
-        seeds_note=(
-            f"With {n} seeds a curve is a mean of few draws"
-            if n > 1
-            else "With one seed a curve is one draw"
-            if n == 1
-            else "With no seed planned there is no curve yet"
-        ),
-    )
 
 
 def read_runs(where: Path, root: Path, warn=print) -> list[dict]:
@@ -147,35 +161,6 @@ def method_progress(
     }
 
 
-def runs_words(
-    progress: dict[str, list[dict]],
-    where: Path,
-    solved: int,
-    resets: int,
-    labels: dict | None = None,
-    env: str = ENV_ID,
-) -> dict[str, str]:
-    """The chapter's sentences on the runs of `method_progress` (by folder name; its
-    labels `labels`, default `METHODS`): runs_outcome, whether any reached the
-    threshold (`best_sentence`) and where each method stands against chance, `solved`
-    of `resets` resets (`chance_sentence`), or `NOTHING_YET`; runs_note, each method's
-    `progress_sentence` (a folder under `where`, results/<env>, tells a run started
-    from one not run yet), then the outcome."""
-    from acder_lite.stats.report import threshold
-
-    labels = labels or METHODS
-    paper = TASK_PRESETS[env]["epochs"]
-    sentences = [
-        progress_sentence(label, progress[n], paper, (where / n).is_dir())
-        for n, label in labels.items()
-    ]
-    labelled = {label: progress[n] for n, label in labels.items()}
-    best = best_sentence(labelled, threshold(env))
-    outcome = f"{best} {chance_sentence(labelled, solved, resets)}" if best else ""
-    outcome = outcome or NOTHING_YET
-    return dict(runs_outcome=outcome, runs_note=" ".join(sentences + [outcome]))
-
-
 def evaluation_counts(run: dict) -> tuple[int, int]:
     """(successes, episodes) of a run of `runs.load_runs` over all its evaluations
     (`evaluation_successes`, summed)."""
@@ -192,48 +177,6 @@ def evaluation_successes(run: dict) -> tuple[list[int], int]:
     return [round(row["test_success"] * n) for row in run["rows"]], n
 
 
-def progress_sentence(
-    label: str, seeds: list[dict], paper_epochs: int, started: bool = False
-) -> str:
-    """`run_progress` in words: "DDPG+HER: not run yet." (or, with `started`, a run
-    folder exists but holds no evaluation yet) or, per seed, the epoch reached (of those
-    planned), its share of the paper's budget and the test success at that last
-    epoch."""
-    if not seeds:
-        return f"{label}: {'started, no evaluation yet' if started else 'not run yet'}."
-    parts = []
-    for s in seeds:
-        epoch = (
-            f"epoch {s['epoch']:g}"
-            if s["epoch"] is not None
-            else f"{s['episodes']:,.0f} episodes"
-        )
-        planned = f" of the {s['planned']} planned" if s["planned"] else ""
-        state = {None: "still running (no done.json yet)"}.get(
-            s["ended"], f"ended: {s['ended']}"
-        )
-        parts.append(
-            f"seed {s['seed']} reached {epoch}{planned} ({percent(s['share'])} of the "
-            f"paper's budget of {paper_epochs} epochs), test success "
-            f"{s['success']:.2f} at its last epoch (best {s['best']:.2f}); {state}"
-        )
-    return f"{label}: " + "; ".join(parts) + "."
-
-
-def best_sentence(progress: dict[str, list[dict]], threshold: float) -> str:
-    """Whether runs of `run_progress` (by label) reached `threshold` at an evaluation,
-    in one sentence; "" when there is no run."""
-    best = {
-        lab: max(s["best"] for s in seeds) for lab, seeds in progress.items() if seeds
-    }
-    if not best:
-        return ""
-    hit = [lab for lab, v in best.items() if v >= threshold]
-    if not hit:
-        return f"No run reached the {threshold:.0%} threshold at any evaluation."
-    return f"Runs of {and_join(hit)} reached the {threshold:.0%} threshold."
-
-
 def versus_chance(k: int, n: int, chance: float, z: float = 1.96) -> str:
     """'above', 'below' or 'at': where k successes in n trials stand against a chance
     rate, by the Wilson interval of k/n (z = 1.96: 95%; `trial_stats.wilson_interval`):
@@ -242,78 +185,56 @@ def versus_chance(k: int, n: int, chance: float, z: float = 1.96) -> str:
     return "above" if lo > chance else "below" if hi < chance else "at"
 
 
-def chance_sentence(progress: dict[str, list[dict]], solved: int, resets: int) -> str:
-    """Each method's test successes of `run_progress` (by label, its seeds pooled) over
-    all their evaluations, beside the chance level: the share of `resets` env resets
-    that start solved (`solved` of them). A rate is called above (below) chance only
-    when its 95% Wilson interval lies wholly above (below) that share
-    (`versus_chance`). "" when there is no run."""
+def chance_reading(
+    progress: dict[str, list[dict]], solved: int, resets: int
+) -> dict[str, dict]:
+    """Each method's test successes of `method_progress` (its seeds pooled) over all
+    their evaluations beside the chance level, `solved` of `resets` env resets that
+    start solved: by method, dict(k, n, rate (k/n), low and high (its 95% Wilson
+    interval), verdict (`versus_chance`: 'above', 'at' or 'below'), chance). Methods
+    without a run are left out."""
     chance = solved / resets
-    counts = {
-        lab: (sum(s["test_successes"] for s in seeds), sum(s["tests"] for s in seeds))
-        for lab, seeds in progress.items()
-        if seeds
-    }
-    if not counts:
-        return ""
-    each, verdict = [], {}
-    for lab, (k, n) in counts.items():
+    out = {}
+    for name, seeds in progress.items():
+        if not seeds:
+            continue
+        k = sum(s["test_successes"] for s in seeds)
+        n = sum(s["tests"] for s in seeds)
         lo, hi = wilson_interval(k, n)
-        each.append(
-            f"{lab} succeeded in {k:,} of {n:,} test episodes ({percent(k / n, 2)}; "
-            f"95% interval {percent_range(lo, hi)})"
+        out[name] = dict(
+            k=k,
+            n=n,
+            rate=k / n,
+            low=lo,
+            high=hi,
+            verdict=versus_chance(k, n, chance),
+            chance=chance,
         )
-        verdict.setdefault(versus_chance(k, n, chance), []).append(lab)
-    words = {
-        "at": "at chance, as many successes as episodes that start solved would give",
-        "above": "above chance",
-        "below": "below chance, fewer successes than the episodes that start solved",
-    }
-    said = [
-        f"{' and '.join(labs)} {'is' if len(labs) == 1 else 'are'} {words[v]}"
-        for v in ("above", "at", "below")
-        if (labs := verdict.get(v))
-    ]
-    return (
-        f"Over all their evaluations {' and '.join(each)}. Both blocks already start "
-        f"on their targets in {percent(chance, 2)} of the env's resets ({solved:,} of "
-        f"{resets:,}, no step taken): taking a rate as above or below that chance "
-        "level only when its 95% Wilson interval lies wholly above or below it, "
-        f"{'; '.join(said)}."
-    )
+    return out
 
 
-def solved_starts_sentence(run: dict, label: str, solved) -> str:
-    """One run of `runs.load_runs` beside its replayed test starts: `solved`, per
-    evaluation, how many of its test episodes started with the task already solved
-    (`pusher.solved_test_starts`). Says how many started so, its successes, and at
-    how many evaluations the two counts are equal."""
-    wins, n = evaluation_successes(run)
-    same = sum(int(w == int(x)) for w, x in zip(wins, solved))
-    return (
-        f"{label} seed {run['seed']}: {int(sum(solved)):,} of its "
-        f"{n * len(wins):,} test episodes started with both blocks on their targets, "
-        f"and it had {sum(wins):,} successes; the two counts are equal at {same} of "
-        f"its {len(wins)} evaluations."
-    )
-
-
-def starts_note(runs: list[dict], labels: dict | None = None) -> str:
-    """`solved_starts_sentence` of each run with an evaluation, in the order of
-    `labels` (run folder name: label, default `METHODS`; other folders last, by their
-    name), its test starts replayed from the trainer's test seeds
-    (`pusher.solved_test_starts`); "There is no run to replay yet." without one."""
+def replayed_starts(run: dict) -> dict:
+    """A run of `runs.load_runs` beside its test episodes' starts, replayed from the
+    trainer's test seeds without the policy (`pusher.solved_test_starts`): `solved`,
+    its test episodes that start with both blocks on their targets; `successes`, its
+    test successes; `tests`, its test episodes; `equal`, the evaluations at which the
+    two counts are equal, of `evaluations`; `more` and `fewer`, those at which the run
+    had more (fewer) successes than solved starts; `per_evaluation`, the pairs
+    (solved, successes) evaluation by evaluation."""
     from acder_lite.book.pusher import solved_test_starts
 
-    labels = labels or METHODS
-    order = {name: i for i, name in enumerate(labels)}  # DDPG+HER first
-    notes = []
-    for r in sorted(runs, key=lambda r: order.get(r["name"], len(order))):
-        if r["rows"]:  # no evaluation: nothing to replay (and reshape(0, -1) fails)
-            solved = solved_test_starts(r["config"], len(r["rows"]))
-            label = labels.get(r["name"], r["name"])
-            notes.append(solved_starts_sentence(r, label, solved))
-    return " ".join(notes) or "There is no run to replay yet."
+    wins, n = evaluation_successes(run)
+    solved = [int(x) for x in solved_test_starts(run["config"], len(wins))]
+    return dict(
+        solved=sum(solved),
+        successes=sum(wins),
+        tests=n * len(wins),
+        equal=sum(int(w == s) for w, s in zip(wins, solved)),
+        more=sum(int(w > s) for w, s in zip(wins, solved)),
+        fewer=sum(int(w < s) for w, s in zip(wins, solved)),
+        evaluations=len(wins),
+        per_evaluation=list(zip(solved, wins)),
+    )
 
 
 ACDER_PARTS = ("pool_size", "alpha", "novel_start_share", "train_success")
@@ -332,45 +253,110 @@ def acder_parts(rows: list[dict], first_epoch: float = 2.0) -> dict:
     return dict(out, first=late[0]["epoch"], last=late[-1]["epoch"])
 
 
-def acder_parts_sentence(parts: dict, verdict: str, seed=None) -> str:
-    """`acder_parts` of a run (of seed `seed`, if given) in words, with what its test
-    success shows beside the chance level (`versus_chance`'s 'above', 'at' or
-    'below'); "" for no parts. Unicode, not maths: glued Markdown renders no $...$."""
-    if not parts:
-        return ""
-    p = parts
-    who = "Averaged" if seed is None else f"Seed {seed}, averaged"
-    head = (
-        f"{who} over epochs {p['first']:g} to {p['last']:g}: its start pool held "
-        f"{p['pool_size']:.0f} candidates, taken from minibatch rows of training "
-        f"episodes that ended in success ({percent(p['train_success'], 2)} of them "
-        f"did); Eq. 9's α was {p['alpha']:.2f} and "
-        f"{percent(p['novel_start_share'], 2)} of its training episodes restarted from "
-        "a pooled state. Curiosity's reward averaged "
-        f"{p['r_int_mean']:.4f} a transition, beside the -λ of every step short of "
-        f"success (λ averaged {p['lambda_mean']:.2f})."
+def long_run(folder: str | Path) -> dict:
+    """The 400-epoch run in `folder`: dict(state, `run_state`; run, its
+    `runs.read_run`, or None while it has no evaluation; epoch, its last evaluation's
+    epoch (0 without one); planned, the epochs its command plans (None without a
+    run); versions, config.json's "versions" (the libraries and, where recorded, the
+    CPU: {} without a run))."""
+    import json
+
+    from acder_lite.runs.read import read_run
+
+    state = run_state(folder)
+    run = read_run(folder) if state in ("in flight", "finished") else None
+    if run is not None and not run["rows"]:
+        run = None
+    epoch = (run["rows"][-1].get("epoch") or 0.0) if run else 0.0
+    versions = {}
+    if run is not None:
+        versions = json.loads((Path(folder) / "config.json").read_text())
+        versions = versions.get("versions") or {}
+    return dict(
+        state=state,
+        run=run,
+        epoch=epoch,
+        planned=run["planned_epochs"] if run else None,
+        versions=versions,
     )
-    tail = {
-        "at": " The parts were at work, changing where and on what it trained, but "
-        "its test success stayed at chance: nothing it learnt shows at test.",
-        "above": " Its test success is above chance: it learnt something that shows "
-        "at test.",
-        "below": " Its test success is below chance: fewer successes than the "
-        "episodes that start solved would give.",
-    }
-    return head + tail[verdict]
 
 
-def acder_note(runs: list[dict], chance: float) -> str:
-    """`acder_parts_sentence` of each DDPG+ACDER run (folder "acder") with an
-    evaluation, in the order of `runs`, with where its test successes over all its
-    evaluations stand against `chance` (`versus_chance`); "There is no DDPG+ACDER run
-    to read yet." when none has a row late enough for `acder_parts`."""
-    notes = []
-    for r in runs:
-        if r["name"] == "acder" and r["rows"]:
-            verdict = versus_chance(*evaluation_counts(r), chance)
-            notes.append(
-                acder_parts_sentence(acder_parts(r["rows"]), verdict, r["seed"])
-            )
-    return " ".join(filter(None, notes)) or "There is no DDPG+ACDER run to read yet."
+def rule_reading(
+    rows: list[dict], level: float = RULE_LEVEL, evaluations: int = RULE_EVALUATIONS
+) -> dict:
+    """results/README.md's rule on a run's progress rows: its test success (both
+    blocks) at or above `level` at `evaluations` consecutive evaluations. dict(met,
+    whether it has held so; met_at, the epoch of the evaluation that first completed
+    such a streak, else None; longest, the longest streak of evaluations at or above
+    `level`; streak, the one running at the last row; best, the highest test success
+    (0 without rows); evaluations, the rows read)."""
+    longest = streak = 0
+    met_at = None
+    for r in rows:
+        streak = streak + 1 if r["test_success"] >= level else 0
+        longest = max(longest, streak)
+        if met_at is None and streak >= evaluations:
+            met_at = r.get("epoch")
+    return dict(
+        met=longest >= evaluations,
+        met_at=met_at,
+        longest=longest,
+        streak=streak,
+        best=max((r["test_success"] for r in rows), default=0.0),
+        evaluations=len(rows),
+    )
+
+
+def rule_chance(
+    chance: float,
+    tests: int,
+    level: float = RULE_LEVEL,
+    evaluations: int = RULE_EVALUATIONS,
+) -> tuple[float, float]:
+    """How likely luck alone meets the rule: a policy whose every test episode succeeds
+    with probability `chance` (no learning) reaches `level` at one evaluation of
+    `tests` episodes with the binomial probability of at least ceil(level * tests)
+    successes; at `evaluations` consecutive (independent) evaluations, its power.
+    Returns (one evaluation, that many in a row)."""
+    k = math.ceil(level * tests - 1e-9)
+    one = sum(
+        math.comb(tests, j) * chance**j * (1 - chance) ** (tests - j)
+        for j in range(k, tests + 1)
+    )
+    return one, one**evaluations
+
+
+def block_means(rows: list[dict], last: int | None = None) -> dict:
+    """The mean of each per-block column (`BLOCK_COLUMNS`, then `POOL_COLUMN`) that
+    `rows` have, over the last `last` rows (all of them without `last`), NaNs left out
+    (the pool's share is NaN while the pool is empty; a column of NaNs only is NaN),
+    with `first` and `last`, the epochs averaged over; {} when the rows have none of
+    these columns (the 40-epoch runs)."""
+    rows = rows[-last:] if last else rows
+    cols = [c for c in BLOCK_COLUMNS + (POOL_COLUMN,) if rows and c in rows[0]]
+    if not cols:
+        return {}
+    out = {}
+    for c in cols:
+        xs = [float(r[c]) for r in rows if not math.isnan(float(r[c]))]
+        out[c] = sum(xs) / len(xs) if xs else math.nan
+    return dict(out, first=rows[0].get("epoch"), last=rows[-1].get("epoch"))
+
+
+def same_first_rows(short: list[dict], long: list[dict], skip=("wall_s",)) -> list:
+    """Where the long run's progress rows differ from the short run's, over the rows
+    both have (the short run's number at most) and the columns both have but `skip`
+    (the timing): [(epoch, column, short's value, long's)], [] when they agree (NaN
+    equals NaN). The 400-epoch run repeats the 40-epoch one's floats for 40 epochs
+    (experiments/multistep-40/README.md), on a CPU of the same kind."""
+
+    def same(a, b):
+        both_nan = isinstance(a, float) and isinstance(b, float)
+        return a == b or (both_nan and math.isnan(a) and math.isnan(b))
+
+    return [
+        (a.get("epoch"), k, a[k], b[k])
+        for a, b in zip(short, long)
+        for k in sorted(a.keys() & b.keys() - set(skip))
+        if not same(a[k], b[k])
+    ]

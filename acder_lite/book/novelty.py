@@ -7,14 +7,11 @@ gripper where the buffer has never been. `episode_errors` takes the error of eve
 of whole episodes, `error_sets` of all four kinds per input, `medians` and `shares_at`
 (the share of errors at or above a clip eta) read them; `clip_shares` keeps the shares
 of familiar and new transitions at the paper's two eta values, which `clip_table`
-lays out. The sentences the chapter glues say what the numbers show: `scale_words` the
-span of the medians, `novelty_contrast` familiar against fresh and scripted,
-`clip_effect` and `clip_readings` what each clip does to an input's errors by the
-start-state rule's criterion, and `eta_verdict` whether both of the paper's values keep
-the novelty gap. Around them: `loss_path` says where each model's training loss went,
+lays out, and `keeps_gap` / `gaps_kept` apply the start-state rule's criterion to them.
 `ratio_table` lays the medians out over the familiar one, and `rollout_halves` reads
 one rollout's errors while it explores and while it sweeps away. Nothing is trained:
-the models only predict.
+the models only predict, and nothing here writes a sentence: the chapter words the
+numbers by hand and asserts what it says.
 
 Traps: the error is in the input's own units (squared standard deviations of the buffer
 on normalised inputs, squared metres and radians on raw ones), so only ratios compare
@@ -94,7 +91,7 @@ def error_sets(
 
 def medians(sets: dict[str, dict[str, np.ndarray]]) -> dict[str, list[float]]:
     """Per input, the median error of each of its sets, in their order (for
-    `error_sets`: familiar, then the episodes'), as `novelty_contrast` takes them."""
+    `error_sets`: familiar, then the episodes')."""
     return {inp: [float(np.median(e)) for e in s.values()] for inp, s in sets.items()}
 
 
@@ -112,25 +109,12 @@ def shares_at(
     }
 
 
-def scale_words(medians: dict[str, list[float]], default: str) -> str:
-    """The span of each input's medians, "A to B on raw inputs (the default) and C to
-    D on normalised inputs", `default` being the package's S-ICM input
-    (`Config.sicm_input`)."""
-    scale = [
-        f"{min(m):.2g} to {max(m):.2g} on {inp} inputs"
-        + (" (the default)" if inp == default else "")
-        for inp, m in medians.items()
-    ]
-    return " and ".join(scale)
-
-
 def clip_shares(
     sets: dict[str, dict[str, np.ndarray]], etas=(0.05, 0.8)
 ) -> dict[tuple[str, str, float], float]:
     """The shares of familiar (`FAMILIAR`, "fam") and of new (`NEW`, "new")
     transitions at or above each clip of `etas` (the paper's two by default), keyed
-    (input, "fam" or "new", eta): what `clip_table`, `clip_readings` and
-    `novelty_contrast`'s `at_clip` read."""
+    (input, "fam" or "new", eta): what `clip_table` and `gaps_kept` read."""
     at = shares_at(sets, etas, names=(FAMILIAR, NEW))
     return {
         (inp, k, x): float(at[inp][name][j])
@@ -143,7 +127,7 @@ def clip_shares(
 def clip_table(sat: dict[tuple[str, str, float], float]):
     """`clip_shares` as a table for `table.to_html`: (header, rows), a row per input,
     a column per eta and set (familiar, then new), shares as percentages to two
-    significant digits, as `novelty_contrast` words them."""
+    significant digits, as the chapter quotes them."""
     inputs = list(dict.fromkeys(inp for inp, _, _ in sat))
     etas = list(dict.fromkeys(x for _, _, x in sat))
     cols = [(x, k) for x in etas for k in ("familiar", "new")]
@@ -152,193 +136,30 @@ def clip_table(sat: dict[tuple[str, str, float], float]):
     return head, rows
 
 
-def novelty_contrast(
-    medians: dict[str, list[float]],
-    at_clip: dict[str, tuple[float, float]],
-    eta: float,
-) -> dict[str, str]:
-    """Chapter 4's familiar-against-unseen comparison in words, from the numbers.
-
-    `medians`: per S-ICM input, the median errors of the familiar transitions, of
-    fresh exploration, then of one or more scripted excursions, in that order.
-    `at_clip`: per input, the shares of familiar and of new transitions at or above
-    the clip `eta`. Returns sentences (Markdown, no maths):
-
-    - `scripted`: whether the scripted excursions are predicted worse than both the
-      familiar transitions and fresh exploration, and their medians over the
-      familiar one;
-    - `new`: fresh exploration's median over the familiar one, and whether it comes
-      closer to it than every scripted excursion;
-    - `tail`: per input, which of familiar and new transitions reach the clip more
-      often (no leading capital: the chapter writes "At eta = ..., " before it);
-    - `summary`: the three in one sentence, without a capital or a full stop.
-    """
-    if not medians or any(len(m) < 3 for m in medians.values()):
-        raise ValueError(
-            "novelty_contrast: each input needs the medians of familiar, new and at "
-            "least one scripted set"
-        )
-
-    r = {i: np.asarray(m, np.float64) / m[0] for i, m in medians.items()}
-    scripted, short = _scripted_sentence(medians, r)
-    closer = all(v[1] < min(v[2:]) for v in r.values())
-    how = "comes closer" if closer else "does not come closer"
-    than = "any" if closer else "every"
-    new = (
-        f"Fresh exploration {how} to the familiar transitions than {than} scripted "
-        "excursion: its median error is "
-        + _on_each([(f"{v[1]:.2g} times", i) for i, v in r.items()])
-        + "."
-    )
-    tail = _clip_tail(at_clip)
-    summary = (
-        f"{short} {_WORSE}; fresh exploration's median error is "
-        f"{_times([v[1] for v in r.values()])} the familiar one; and at η = {eta:g}, "
-        f"{tail}"
-    )
-    return dict(scripted=scripted, new=new, tail=tail, summary=summary)
-
-
-_WORSE = "predicted worse than both the familiar transitions and fresh exploration"
-
-
-def _times(v) -> str:
-    """Ratios as "3.1 times" or "2.5 to 4 times"."""
-    lo, hi = f"{min(v):.2g}", f"{max(v):.2g}"
-    return f"{lo} times" if lo == hi else f"{lo} to {hi} times"
-
-
-def _on_each(parts: list[tuple[str, str]]) -> str:
-    """(text, input) pairs as "T1 the familiar one on raw inputs and T2 on ... ones"."""
-    said = [f"{parts[0][0]} the familiar one on {parts[0][1]} inputs"]
-    return " and ".join(said + [f"{t} on {i} ones" for t, i in parts[1:]])
-
-
-def _scripted_sentence(medians: dict, r: dict) -> tuple[str, str]:
-    """`novelty_contrast`'s `scripted` sentence, and its short form for the summary."""
-    over = [i for i, m in medians.items() if min(m[2:]) > max(m[:2])]
-    where = "the scripted excursions, which go where the buffer has never been,"
-    if len(over) == len(r):
-        on = "on both inputs" if len(r) == 2 else "on all inputs"
-        lead, short = f"{on} {where} are {_WORSE}", f"{on} the scripted excursions are"
-    else:
-        on = f"only on {' and '.join(over)} inputs" if over else "on no input"
-        lead, short = f"{on} are {where} {_WORSE}", f"{on} are the scripted excursions"
-    scripted = (
-        f"{lead[0].upper()}{lead[1:]}: their median errors are "
-        + _on_each([(_times(v[2:]), i) for i, v in r.items()])
-        + "."
-    )
-    return scripted, short
-
-
-def _clip_tail(at_clip: dict[str, tuple[float, float]]) -> str:
-    """`novelty_contrast`'s `tail`: per input, which of familiar and new transitions
-    reach the clip more often."""
-    parts = []
-    for i, (f, n) in at_clip.items():
-        if f == n == 0:
-            parts.append(f"neither familiar nor new transitions reach it on {i} inputs")
-        elif f != n:
-            a, b, x, y = (
-                ("familiar", "new", f, n) if f > n else ("new", "familiar", n, f)
-            )
-            parts.append(
-                f"{a} transitions reach it more often than {b} ones on {i} inputs "
-                f"({percent(x, 2)} against {percent(y, 2)})"
-            )
-        else:
-            parts.append(
-                f"familiar and new transitions reach it equally often on {i} inputs "
-                f"({percent(f, 2)})"
-            )
-    parts[0] = parts[0].replace("reach it", "reach the clip", 1)
-    return ", while ".join(parts)
-
-
-def clip_effect(familiar: float, new: float, name: str) -> tuple[str, bool]:
-    """What a clip eta does to one S-ICM input's errors, in words (chapter 4), from
-    the shares of familiar and of new transitions at or above it: (sentence, whether
-    it keeps the novelty gap).
+def keeps_gap(familiar: float, new: float) -> bool:
+    """Whether a clip eta keeps the novelty gap on one S-ICM input, from the shares of
+    familiar and of new transitions at or above it (`clip_shares`).
 
     The criterion is the start-state rule's, the one chapter 8 ("What S-ICM sees") and
     book/departures.md (departure 6) apply to the paper's eta values: the rule ranks
     the rows of successful episodes by their *clipped* r^i (Eq. 4), and the paper uses
     the clip "to keep novelty gap between states". Every error at or above eta earns
     the same r^i = eta, so a clip keeps that gap, i.e. still ranks states by novelty,
-    only where most errors fall below it:
-
-    - no error reaches it: it ranks every state and only bounds outliers not seen in
-      these errors (True);
-    - most of both sets fall below it, some reach it: it ranks the ones below and caps
-      the rest (True);
-    - most of either set reach it (a share above a half): curiosity is a flat bonus
-      there, and the "most novel" state a tie between rows at eta (False).
-    """
-    most = [k for k, v in (("familiar", familiar), ("new", new)) if v > 0.5]
-    if len(most) == 2:
-        return (
-            f"most {name} errors sit at the clip, making curiosity a flat bonus that "
-            "ranks none of them",
-            False,
-        )
-    if most:
-        return (
-            f"most of the {most[0]} {name} errors sit at the clip, where they tie",
-            False,
-        )
-    if max(familiar, new) == 0:
-        return (
-            f"no {name} error here reaches it, so it ranks every state and only bounds "
-            "outliers not seen here",
-            True,
-        )
-    return (
-        f"most {name} errors fall below it, which it ranks, and it caps the part "
-        "that reaches it",
-        True,
-    )
+    only where most errors of both sets fall below it (a share at the clip of at most
+    a half). A clip that no error reaches keeps it too: it ranks every state and only
+    bounds outliers not seen in these errors."""
+    return max(familiar, new) <= 0.5
 
 
-def clip_readings(
-    sat: dict[tuple[str, str, float], float],
-) -> tuple[dict[float, str], dict[str, bool]]:
-    """`clip_effect` of every input at every eta of `clip_shares`: (per eta, the inputs'
-    sentences joined by ", while "; per input, whether every eta keeps its novelty
-    gap)."""
+def gaps_kept(sat: dict[tuple[str, str, float], float]) -> dict[str, bool]:
+    """Per S-ICM input of `clip_shares`' `sat`, whether every eta in it keeps the
+    novelty gap (`keeps_gap`)."""
     inputs = list(dict.fromkeys(inp for inp, _, _ in sat))
-    readings, keeps = {}, {inp: True for inp in inputs}
-    for x in dict.fromkeys(x for _, _, x in sat):
-        said = [
-            clip_effect(sat[inp, "fam", x], sat[inp, "new", x], inp) for inp in inputs
-        ]
-        readings[x] = ", while ".join(s for s, _ in said)
-        keeps = {inp: keeps[inp] and ok for inp, (_, ok) in zip(inputs, said)}
-    return readings, keeps
-
-
-def eta_verdict(keeps: dict[str, bool]) -> str:
-    """Whether both of the paper's eta values keep the novelty gap, in one sentence
-    (no full stop), from `clip_readings`' `keeps` of the two S-ICM inputs: on either
-    input, only on the first that does, or on neither."""
-    good = [inp for inp, ok in keeps.items() if ok]
-    if len(good) == len(keeps):
-        return "Both of the paper's values keep the novelty gap on either input"
-    if good:
-        return (
-            f"Both of the paper's values keep the novelty gap only on {good[0]} inputs"
-        )
-    return "On neither input do both of the paper's values keep the novelty gap"
-
-
-def loss_path(rows: dict[str, list[dict]]) -> str:
-    """Where each S-ICM input's training loss went, in words: "0.52 to 0.21 on
-    normalised and ...", from the first to the last row of `rows` (per input, the
-    rows `Trainer.train` returned, each with its `curiosity_loss`)."""
-    ends = {
-        i: (r[0]["curiosity_loss"], r[-1]["curiosity_loss"]) for i, r in rows.items()
+    etas = list(dict.fromkeys(x for _, _, x in sat))
+    return {
+        inp: all(keeps_gap(sat[inp, "fam", x], sat[inp, "new", x]) for x in etas)
+        for inp in inputs
     }
-    return " and ".join(f"{a:.3g} to {b:.3g} on {i}" for i, (a, b) in ends.items())
 
 
 def ratio_table(medians: dict[str, list[float]], names):

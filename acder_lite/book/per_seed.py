@@ -1,6 +1,6 @@
 """One seed's reading, for chapter 7: each seed's first crossing of a success
-threshold in the protocol-v1 runs (`seed_crossings`, in words `crossing_text`), and how
-the chapter's live runs ended (`live_ended`)."""
+threshold in the protocol-v1 runs (`seed_crossings`). The chapter writes its sentences
+about them by hand and glues the numbers in."""
 
 from __future__ import annotations
 
@@ -27,30 +27,3 @@ def seed_crossings(
         last = rows[-1]["episodes"]
         out.append(dict(seed=r["seed"], hit=hit, best=best, episodes=last))
     return out
-
-
-def crossing_text(s: dict) -> str:
-    """One seed of `seed_crossings` in a few words: 'seed 0: 4,000', or 'seed 1: not
-    reached (best 0.90 in 10,000)'."""
-    if s["hit"] is not None:
-        return f"seed {s['seed']}: {s['hit']:,.0f}"
-    return (
-        f"seed {s['seed']}: not reached (best {s['best']:.2f} in {s['episodes']:,.0f})"
-    )
-
-
-def live_ended(ends: dict, n_eval: int, patience: int) -> str:
-    """How chapter 7's two live runs ended, in words: `ends` maps a method to (its
-    training episodes, the trainer's `stop_reason` if it stopped before its budget,
-    else None). Where the runs evaluated fewer than `patience` times (ACDER_FAST's
-    budget) it adds that the stop rule could not fire."""
-    stopped = [
-        f"{m} stopped early, after {n} episodes ({why})"
-        for m, (n, why) in ends.items()
-        if why is not None
-    ]
-    most = max(n for n, _ in ends.values())
-    text = "; ".join(stopped) or f"both ran the full {most} episodes"
-    if n_eval < patience:
-        text += f" (each run's {n_eval} evaluations: the stop rule needs {patience})"
-    return text

@@ -819,3 +819,188 @@ def _arrow_up(ax, x: float, y: float, length: float, color) -> None:
     """An arrow from (x, y) up by `length`: what it marks goes on beyond."""
     ax.annotate("", xy=(x, y + length), xytext=(x, y),
                 arrowprops=dict(arrowstyle="->", color=color, lw=1.2))  # fmt: skip
+
+
+def block_panels(
+    run: dict,
+    chance: float,
+    each_chance=(),
+    short: dict | None = None,
+    level: float | None = None,
+    title: str = "",
+):
+    """Chapter 9's 400-epoch run of the multi-step Push, one run (`runs.read_run`), in
+    two panels over epochs. Top: its test success (both blocks on their targets at the
+    last step), each block's share on its target (`block{i}_on_target`, when
+    progress.csv has them), the chance level `chance` of both blocks and, dotted in
+    each block's colour, `each_chance` (each block's), the rule's `level` dashed, and
+    the 40-epoch run `short`'s test success, thin, where given. Bottom, when
+    progress.csv has them: each block's share of test episodes in which it moved
+    (`block{i}_moved`) and the share of the start-state pool holding a block on its
+    target (`pool_block_on_target`). `title` heads the figure (say there whether the
+    run has finished). Returns it."""
+    import matplotlib.pyplot as plt
+
+    rows = run["rows"]
+    has = set(rows[0]) if rows else set()
+    lower = [c for c in ("block0_moved", "block1_moved") if c in has]
+    lower += ["pool_block_on_target"] if "pool_block_on_target" in has else []
+    n = 2 if lower else 1
+    fig, axes = plt.subplots(n, 1, figsize=(WIDTH, 3.4 * n), dpi=DPI, squeeze=False)
+    x = [r["epoch"] for r in rows]
+    block = {0: "0.45", 1: "C0"}  # the scene's colours: block 0 grey, block 1 blue
+    top = axes[0, 0]
+    top.plot(x, [r["test_success"] for r in rows], color="k", lw=1.6,
+             label="both blocks (test success)")  # fmt: skip
+    for i in (0, 1):
+        if f"block{i}_on_target" in has:
+            ys = [r[f"block{i}_on_target"] for r in rows]
+            top.plot(x, ys, color=block[i], lw=1, label=f"block {i} on its target")
+    for i, c in enumerate(each_chance):
+        top.axhline(c, color=block[i], ls=":", lw=1)
+    top.axhline(chance, color="k", ls=":", lw=1, label=f"chance, both ({chance:.2%})")
+    if short is not None:
+        sx = [r["epoch"] for r in short["rows"]]
+        top.plot(sx, [r["test_success"] for r in short["rows"]], color="C4", lw=0.8,
+                 alpha=0.7, label="the 40-epoch run, both")  # fmt: skip
+    if level is not None:
+        top.axhline(level, color="gray", ls="--", lw=0.8, label=f"rule: {level:.0%}")
+    top.set_ylabel("share of test episodes")
+    top.set_title(title, fontsize=10, loc="left")
+    if lower:
+        ax = axes[1, 0]
+        for i in (0, 1):
+            if f"block{i}_moved" in has:
+                ys = [r[f"block{i}_moved"] for r in rows]
+                ax.plot(x, ys, color=block[i], lw=1, label=f"block {i} moved (test)")
+        if "pool_block_on_target" in has:
+            ys = [r["pool_block_on_target"] for r in rows]  # NaN: empty pool, no dot
+            ax.plot(x, ys, color="C4", lw=1, ls="--",
+                    label="start pool: a block on its target")  # fmt: skip
+        ax.set_ylabel("share")
+    for ax in axes[:, 0]:
+        ax.set_xlabel("epochs")
+        ax.set_xlim(0, max(x + [1]))
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=FONT)
+        legend_below(ax)
+    fig.tight_layout()
+    return fig
+
+
+def sicm_error_histograms(axes, errs: dict):
+    """Chapter 6's S-ICM errors before the clip on the successful rows of fresh
+    minibatches, an axes of the column `axes` per S-ICM input: `errs` maps the input to
+    `diagnose.minibatch_errors`' dict (`err`, `successful`, `eta`). Log bins; the clip
+    eta dashed, right of which Eq. 4 pays eta to every row alike."""
+    for ax, (inp, d) in zip(axes, errs.items()):
+        e = d["err"][d["successful"]]
+        if e.size:
+            bins = np.geomspace(max(e.min(), 1e-6), max(e.max(), d["eta"]) * 1.01, 50)
+            ax.hist(e, bins=bins)
+        label = rf"$\eta$ = {d['eta']}: Eq. 4 pays min(error, $\eta$)"
+        ax.axvline(d["eta"], color="r", ls="--", label=label)
+        ax.set_xscale("log")
+        ax.set_ylabel("rows")
+        ax.set_title(f"sicm_input = {inp!r}: successful rows", fontsize=10, loc="left")
+        ax.legend(fontsize=FONT)
+    axes[-1].set_xlabel(r"S-ICM error $\frac{1}{2}\|F(s,a) - s'\|^2$ before the clip")
+
+
+START_SHARE_COLUMNS = [
+    ("test_success", "o-", "test success"),
+    ("alpha", "s-", r"$\alpha$ (Eq. 9)"),
+    ("novel_start_share", "^-", "share of novel starts"),
+]
+"""What `start_share_curves` draws: (progress column, line style, label)."""
+
+
+def start_share_curves(ax, rows: list[dict]):
+    """Chapter 6's short ACDER run, from its progress rows (`Trainer.train`'s), against
+    its training episodes, one evaluation a point: the test success, Eq. 9's alpha and
+    the share of its training episodes that started from a stored candidate
+    (`START_SHARE_COLUMNS`), the legend below the axes."""
+    x = [r["episodes"] for r in rows]
+    for key, style, label in START_SHARE_COLUMNS:
+        ax.plot(x, [r[key] for r in rows], style, label=label)
+    ax.set_xlabel("training episodes")
+    ax.set_ylabel("rate, probability or share")
+    legend_below(ax, ncol=3)
+
+
+def pool_map(ax, gripper: np.ndarray, start) -> None:
+    """Chapter 6's start-state pool seen from above: the gripper position (x, y) of
+    each candidate of `gripper` (k, 3), coloured from the oldest (0) to the newest, with
+    a colour bar, and the gripper's reset position `start` as a black cross."""
+    k = len(gripper)
+    sc = ax.scatter(gripper[:, 0], gripper[:, 1], c=np.arange(k), cmap="viridis")
+    ax.figure.colorbar(sc, ax=ax, label="candidate, oldest (0) to newest")
+    ax.plot(start[0], start[1], "k+", ms=15, label="reset position of the gripper")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_aspect("equal")
+    ax.legend(fontsize=FONT)
+
+
+def live_success(ax, live: dict[str, list[dict]]) -> None:
+    """Chapter 7's live runs: the test success of each method's progress rows (`live`
+    maps a method to `Trainer.train`'s rows) against its training episodes, one
+    evaluation a point, labelled as the paper names the methods (DDPG+HER, ...)."""
+    for method, rows in live.items():
+        x, y = [r["episodes"] for r in rows], [r["test_success"] for r in rows]
+        ax.plot(x, y, "o-", label=METHOD_LABELS.get(method, method))
+    ax.set_xlabel("training episodes")
+    ax.set_ylabel("test success")
+    ax.set_ylim(-0.05, 1.05)
+    ax.legend(fontsize=FONT)
+
+
+def episode_distances(axes, ep: dict) -> None:
+    """One recorded episode (`viz.record_rollout`'s `episode`: o, ag, g), a column of
+    two `axes` (chapter 7's trained policy). Top: the achieved goal's distance to the
+    goal and the gripper's distance to the achieved goal against the step, in cm, the 5
+    cm of success dashed. Below: the gripper's and the achieved goal's paths seen from
+    above, the goal a red star."""
+    g_all = np.concatenate([ep["g"], ep["g"][-1:]])  # a goal for each of T + 1 states
+    ax = axes[0]
+    d_goal = np.linalg.norm(ep["ag"] - g_all, axis=-1) * 100
+    ax.plot(d_goal, label="achieved goal to goal")
+    d_grip = np.linalg.norm(ep["o"][:, :3] - ep["ag"], axis=-1) * 100
+    ax.plot(d_grip, label="gripper to achieved goal")
+    ax.axhline(5, color="gray", ls="--")
+    ax.set_xlabel("step")
+    ax.set_ylabel("cm")
+    ax.legend(fontsize=FONT)
+    ax = axes[1]
+    ax.plot(ep["o"][:, 0], ep["o"][:, 1], ".-", label="gripper")
+    ax.plot(ep["ag"][:, 0], ep["ag"][:, 1], "s-", ms=3, label="achieved goal")
+    ax.plot(*ep["g"][0, :2], "r*", ms=15, label="goal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_aspect("equal")
+    ax.legend(fontsize=FONT)
+
+
+def r_int_over_training(ax, runs: list[dict], eta: float, demo=None):
+    """Chapter 4's mean intrinsic reward over training: one line per run of `runs`
+    (`runs.read.load_runs`' dicts, e.g. the Push ACDER seeds) of progress.csv's
+    `r_int_mean` against its `episodes`, on a log axis, the clip `eta` dashed; `demo`,
+    an (episodes, r_int_mean) pair, marks a short run (the chapter's own) with a star.
+    The legend goes under the axes (`legend_below`)."""
+    for r in sorted(runs, key=lambda r: str(r["seed"])):
+        pts = [
+            (row["episodes"], row["r_int_mean"])
+            for row in r["rows"]
+            if isinstance(row.get("r_int_mean"), float)
+        ]
+        if pts:
+            ax.plot(*zip(*pts), lw=1, label=f"seed {r['seed']}")
+    ax.axhline(eta, color="gray", ls="--", lw=0.8, label=rf"$\eta$ = {eta:g}")
+    if demo is not None:
+        ax.plot(*demo, "k*", ms=10, label="this chapter's run")
+    ax.set_yscale("log")
+    ax.set_xlabel("training episodes")
+    ax.set_ylabel(r"mean $r^i$ of the minibatches")
+    ax.grid(alpha=0.3)
+    legend_below(ax, ncol=4)

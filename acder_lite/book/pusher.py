@@ -114,23 +114,24 @@ def start_on_targets(seeds, resets: int) -> dict:
     (`envs.make_env`, whose seeding reset is not counted), `resets` further resets, no
     step. dict(both: both blocks within distance_threshold of their targets at reset,
     the env's own success rule `envs.successes`; one: at least one block so), bool
-    arrays (resets, len(seeds)) in reset order.
+    arrays (resets, len(seeds)) in reset order; and each: each block so, bool
+    (resets, len(seeds), 2).
 
     A policy that never moves a block succeeds on the `both` episodes and on no other:
     the chance level of test success (chapter 9)."""
 
     envs = [make_env(ENV_ID, seed=s) for s in seeds]
     both = np.zeros((resets, len(envs)), bool)
-    one = np.zeros_like(both)
+    each = np.zeros(both.shape + (2,), bool)
     for t in range(resets):
         for i, env in enumerate(envs):
             obs, _ = env.reset()
             ag, g = obs["achieved_goal"], obs["desired_goal"]
             both[t, i] = successes(env, ag, g)
-            one[t, i] = (block_distances(ag, g) < env.distance_threshold).any()
+            each[t, i] = block_distances(ag, g) < env.distance_threshold
     for env in envs:
         env.close()
-    return dict(both=both, one=one)
+    return dict(both=both, one=each.any(axis=-1), each=each)
 
 
 def solved_test_starts(config: dict, evaluations: int) -> np.ndarray:

@@ -1,10 +1,8 @@
 """Chapter 1's random arm: what a uniformly random policy's episodes on a Fetch task
-come to (success, solved at the reset, earned, near the goal at some step, moved), and
-how the chapter words the tasks' success rates against each other."""
+come to (success, solved at the reset, earned, near the goal at some step, moved). The
+chapter words the tasks against each other by hand and asserts what it says."""
 
 from __future__ import annotations
-
-from acder_lite.book.utils import percent
 
 EPISODE_STATS = {
     "success": "success at the last step",
@@ -75,26 +73,3 @@ def random_episode_stats(
         for env in envs:
             env.close()
     return {key: np.concatenate([p[key] for p in per]) for key in per[0]}
-
-
-def success_rank(push: float, reach: float) -> str:
-    """How the random policy's success rates (shares) rank Push against Reach, as a
-    sentence opening. Trap: compared as the book prints them (`book_utils.percent`),
-    so two rates that print alike are a tie even where the floats differ."""
-    if percent(push) == percent(reach):
-        return "The success rates do not even tell Push from Reach"
-    if push > reach:
-        return "The success rates even rank Push above Reach"
-    return "The success rates rank Reach above Push"
-
-
-def luck_quantifier(success: int, earned: int) -> str:
-    """How many of the object tasks' random successes were luck at the reset (solved at
-    step 0), as chapter 1 words it, from the counts of successes and of those `earned`
-    (not solved at step 0): 'all' (none earned), 'most' (under half earned), 'some'.
-    Trap: a fixed "mostly" went on saying so where every success was luck."""
-    if not 0 <= earned <= success:
-        raise ValueError(f"earned {earned} is not in [0, success={success}]")
-    if earned == 0:
-        return "all"
-    return "most" if 2 * earned < success else "some"

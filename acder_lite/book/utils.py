@@ -32,8 +32,10 @@ def budgets(fast: bool, trains: bool = True, **pairs) -> dict:
     for a default run's update (timed in both precisions, with the two timings:
     `precision.choose_update_dtype`; a chapter's run times its own shapes): the
     chapters train with the default, so a reader on another CPU sees why their numbers
-    differ from the rendered book's in the later digits. A chapter that trains
-    no network passes `trains=False` and gets the table only."""
+    differ from the rendered book's in the later digits. `trains=False` prints the
+    table only: for a chapter that trains no network, and for the teaching chapters,
+    which say the precision once, in a line pointing at the engineering appendix, not
+    in their first cell."""
     from acder_lite.precision import choose_update_dtype
 
     chosen = {k: (v[1] if fast else v[0]) for k, v in pairs.items()}

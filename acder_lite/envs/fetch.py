@@ -31,7 +31,7 @@ plugin state) plus the solver warm start, ctrl, the mocap pose and active equali
 constraints. FULLPHYSICS alone is not enough (departure 17 lists the same parts):
 without the warm start the solver starts from another guess and a restored rollout
 drifts, by 1e-15 to 1e-11 within 20-40 steps depending on the task and MuJoCo's version
-(chapter 6 measures it); with it they match bit for bit.
+(the book's engineering appendix measures it); with it they match bit for bit.
 The mocap pose and ctrl cost 7 numbers and keep restores exact for models that do not
 re-anchor the mocap every step. The rest of mjSTATE_INTEGRATION (applied forces, 219 of
 its 292 numbers on FetchPush) is always zero in these tasks and is left out: 73 numbers
@@ -155,8 +155,8 @@ def get_state(env, out: np.ndarray | None = None, spec: int = STATE_SPEC) -> np.
     """The full physics state (float64), `mj_getState(..., STATE_SPEC)`.
 
     `spec` picks other MuJoCo state components (an `mjtState` bit mask, e.g.
-    `mjSTATE_FULLPHYSICS`; chapter 6 compares them); training always uses the default.
-    Set such a state back with the same `spec`."""
+    `mjSTATE_FULLPHYSICS`; the book's appendix compares them); training always uses
+    the default. Set such a state back with the same `spec`."""
     if out is None:
         out = np.empty(state_size(env, spec), dtype=np.float64)
     mujoco.mj_getState(env.model, env.data, out, spec)
@@ -278,7 +278,8 @@ def replay_difference(
     Returns the largest |difference| of the observation at each replayed step (zeros:
     bit for bit) and the stored state's size. `gymnasium_step` steps with the env's
     own `env.step` instead of ours (`step`), whose kinematics lag a substep behind.
-    Chapter 6 compares `STATE_SPEC` with `mjSTATE_FULLPHYSICS` and the two steps.
+    The engineering appendix compares `STATE_SPEC` with `mjSTATE_FULLPHYSICS` and the
+    two steps.
     """
     env = make_env(env_id, seed=seed)
     rng = np.random.default_rng(seed)
