@@ -4,9 +4,14 @@
 file that `python -m acder_lite robust RUN --json FILE` wrote for the same policy
 (chapter 10 reads each simplified-state run's `robust.json`). The same policy, seed and
 simulator give the same outcomes, trial for trial, so a differing row is a break of
-determinism, or another CPU kind (float32 kernels differ between instruction sets,
-results/README.md). `check_stored` compares every task's simplified-state bench with
-the `robust.json` of its run folder, `stored_rows` makes the book's table of the
+determinism, or another CPU kind: the actor's float32 matrix products go through MKL,
+which picks its kernels by CPU, and an action a few 1e-6 off can flip a trial where the
+gripper meets the block. Measured (chapter 10): forcing MKL's CPU-independent path
+(`MKL_CBWR=COMPATIBLE`) moved the actions by up to 3e-6 and changed 5 of Push's 20
+bench rows, 1 of Pick&Place's, none of Reach's (no contact to magnify
+the difference); threads do not matter (2 threads give the same actions).
+`check_stored` compares every task's simplified-state bench with the `robust.json` of
+its run folder, `stored_rows` makes the book's table of the
 checks, a row a task (`STORED_HEADER`), and `scope_sentence` says what they covered.
 
 Traps: trial i starts from the env seeded seed + i whatever the trial count, so a bench
