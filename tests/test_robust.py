@@ -22,11 +22,8 @@ from acder_lite.deploy.robust import (
     policy_act,
     run_bench,
     separated_rows,
-    separation_sentence,
     side_by_side,
     weakest,
-    reading,
-    readings,
 )
 from acder_lite.deploy.stored_bench import compare_stored
 
@@ -98,32 +95,6 @@ def test_side_by_side_puts_benches_in_columns():
     assert len(lines) == 2 + 4  # delay 0, 1, 2, goal noise 0.01
     low = weakest(reach)
     assert low["successes"] == min(r["successes"] for r in reach["rows"])
-    assert reading("full state", None) == "the full-state policy is not trained yet"
-    text, nom = reading("controller", reach), reach["rows"][0]["successes"]
-    assert text.startswith(f"the controller policy succeeds in {nom} of 3 trials")
-    if low["successes"] < nom:
-        assert f"in {low['successes']} at its weakest, `action_delay` = 2 steps" in text
-    else:
-        assert text.endswith("as often at every perturbed level")
-    # the nominal row found by its flag: with action_scale alone, 0.8x comes first
-    hand = dict(
-        rows=[
-            dict(knob="action_scale", level=0.8, unit="x", nominal=False, successes=1),
-            dict(knob="action_scale", level=1.0, unit="x", nominal=True, successes=3),
-        ]
-    )
-    hand["rows"][1]["trials"] = 3
-    assert reading("p", hand) == (
-        "the p policy succeeds in 3 of 3 trials unperturbed and in 1 at its weakest, "
-        "`action_scale` = 0.8 x"
-    )
-    # two levels tied for weakest: both named, in the table's order
-    hand["rows"].append(
-        dict(knob="action_delay", level=2, unit="steps", nominal=False, successes=1)
-    )
-    assert reading("p", hand).endswith(
-        "in 1 at its weakest, `action_scale` = 0.8 x and `action_delay` = 2 steps"
-    )
 
 
 def _bench(*rows):
@@ -162,42 +133,6 @@ def test_separated_rows_lists_the_rows_whose_columns_are_told_apart():
         (P, "obs_noise", 0.02),
     ]
     assert rows[1]["counts"] == [("full state", 7, 20), ("simplified state", 17, 20)]
-    text = separation_sentence(20, rows[1:])
-    assert text.startswith(
-        "At 20 trials a level, two counts are told apart (their 95% Wilson intervals "
-        "do not overlap) only when they are at least 7 trials apart near an end of "
-        "the range (0 against 7 of 20) and 9 in its middle (5 against 14); "
-    )
-    assert text.endswith(
-        "the one row of the bench that separates its columns is Push `obs_noise` = "
-        "0.02 m (full state 7/20, simplified state 17/20)."
-    )
-    assert "the 2 rows" in separation_sentence(20, rows)
-    assert "Push unperturbed (full state 0/20" in separation_sentence(20, rows)
-    assert separation_sentence(20, []).endswith(
-        "; no row of the bench separates a task's two columns."
-    )
-    assert separation_sentence(4, []).startswith(
-        "At 4 trials a level, two counts are told apart (their 95% Wilson intervals "
-        "do not overlap) only when they are at least 4 trials apart near an end of "
-        "the range (0 against 4 of 4);"
-    )
-    assert "no two counts are told apart" in separation_sentence(2, [])
-
-
-def test_readings_read_a_tasks_columns_in_the_order_given():
-    P = "FetchPush-v4"
-    bench = {
-        (P, "simplified state"): _bench(
-            ("obs_noise", 0.0, 20), ("obs_noise", 0.02, 17)
-        ),
-        ("FetchReach-v4", "full state"): _bench(("goal_noise", 0.0, 3)),  # not Push's
-    }
-    assert readings(bench, P, ["simplified state", "full state"]) == (
-        "the simplified-state policy succeeds in 20 of 20 trials unperturbed and in "
-        "17 at its weakest, `obs_noise` = 0.02 m; the full-state policy is not "
-        "trained yet"
-    )
 
 
 def test_determinism_for_a_seed_and_common_trials():
@@ -398,15 +333,6 @@ def test_cli_output_in_a_new_folder_is_written(cli, reach_policy, tmp_path):
     assert sorted(x.name for x in tmp_path.rglob("*")) == ["new", "r.json", "sub"]
 
 
-def test_reading_of_one_trial_is_singular():
-    row = dict(
-        knob="goal_noise", level=0.0, unit="m", nominal=True, successes=1, trials=1
-    )
-    assert reading("p", dict(rows=[row])).startswith(
-        "the p policy succeeds in 1 of 1 trial unperturbed"
-    )
-
-
 def test_perturb_help_says_which_knobs_need_a_block(cli):
     text = " ".join(cli("robust", "--help").stdout.split())
     assert (
@@ -505,9 +431,6 @@ def test_bench_policies_benches_every_trained_column(controller_policy):
         "FetchReach-v4 full state: nominal 3/3; how far its run had trained is not "
         "recorded"
     ]  # the nominal row found by its flag: here the second
-    assert readings(bench, "FetchReach-v4", cols).endswith(
-        "; the simplified-state policy is not trained yet"
-    )
     with pytest.raises(ConfigError, match="is not the policy's task"):
         bench_policies(root, {"FetchPush-v4": cols}, **kw)
 

@@ -4,7 +4,7 @@ first trials but for its noise rows, other settings are refused, and the book's
 table.
 The command's own stored bench against run_bench: test_robust.py."""
 
-from acder_lite.deploy.stored_bench import STORED_HEADER, compare_stored, stored_rows
+from acder_lite.deploy.stored_bench import compare_stored
 
 
 def _hand_bench(trials: int, rows: dict, **settings) -> dict:
@@ -95,46 +95,12 @@ def test_compare_stored_refuses_other_settings_and_reports_missing_rows():
     assert not compare_stored(stored, None)["equal"]
 
 
-def test_stored_rows_one_row_a_task():
-    stored = _hand_bench(4, STORED)
-    flipped = dict(STORED)
-    flipped["mass", 2.0] = [1, 1, 1, 1]
-    short = {
-        ("obs_noise", 0.0): [1, 1],
-        ("obs_noise", 0.01): [0, 0],
-        ("mass", 2): [1, 0],
-    }
-    checks = {
-        "FetchReach-v4": compare_stored(_hand_bench(4, dict(STORED)), stored),
-        "FetchPush-v4": compare_stored(_hand_bench(4, flipped), stored),
-        "FetchPickAndPlace-v4": compare_stored(_hand_bench(2, short), stored),
-        "FetchSlide-v4": compare_stored(None, stored),
-    }
-    rows = stored_rows(checks)
-    assert all(len(r) == len(STORED_HEADER) for r in rows)
-    assert rows[0] == ("Reach", 3, "4", "the same outcomes, trial for trial")
-    assert rows[1] == (
-        "Push",
-        3,
-        "4",
-        "differs on 1: `mass` = 2 x (4/4 here, 3/4 stored)",
-    )
-    assert rows[2] == (
-        "Pick&Place",
-        2,
-        "the first 2 (2 here, 4 stored)",
-        "the same outcomes, trial for trial; 1 row cannot be compared at 2 trials, "
-        "`obs_noise` = 0.01 m (their noise draws depend on the trial count)",
-    )
-    assert rows[3][1:] == ("–", "–", "no bench run here to compare")
-
-
 def test_check_stored_reads_each_simplified_runs_robust_json(tmp_path):
     """Each task's simplified-state bench against the robust.json of its run folder;
     a task without the folder or the file, or without a live bench, is said to be."""
     import json
 
-    from acder_lite.deploy.stored_bench import check_stored, scope_sentence
+    from acder_lite.deploy.stored_bench import check_stored
 
     R, P, PP = "FetchReach-v4", "FetchPush-v4", "FetchPickAndPlace-v4"
     (tmp_path / "push").mkdir()
@@ -156,11 +122,6 @@ def test_check_stored_reads_each_simplified_runs_robust_json(tmp_path):
     assert checks[PP]["sentence"] == "no bench run here to compare"  # no folder
     assert len(checks[P]["matched"]) == 2 and checks[P]["trials"] == 2
     assert checks[P]["skipped"][0][:2] == ("obs_noise", 0.01)
-    assert scope_sentence(checks, 2).startswith("This build ran 2 trials a level")
-    whole = {P: compare_stored(_hand_bench(4, STORED), _hand_bench(4, STORED))}
-    assert scope_sentence(whole, 4) == (
-        "Every row that both benches ran is compared, on every trial."
-    )
 
 
 def test_compare_stored_with_every_row_skipped_is_not_equal():

@@ -64,9 +64,8 @@ from acder_lite.deploy.perturb import (
     unit_of,
 )
 from acder_lite.train.rollout import Policy, run_episodes
-from acder_lite.runs.table import task_label
-from acder_lite.stats.trial_stats import separating_gap, told_apart
-from acder_lite.words import and_join, count
+from acder_lite.stats.trial_stats import told_apart
+from acder_lite.words import count
 
 NOISE_STREAM = 0xACDE
 """First word of the noise generator's seed, [NOISE_STREAM, seed]: trial 0's env is
@@ -291,77 +290,10 @@ def separated_rows(bench: dict[tuple[str, str], dict], z: float = 1.96) -> list[
     return out
 
 
-def separation_sentence(n: int, rows: list[dict]) -> str:
-    """Chapter 10's reading of its bench's resolution: how many trials apart two counts
-    out of `n` must be to be told apart (`separating_gap`), and which rows of
-    `separated_rows` are ("none" when none is)."""
-    gap = separating_gap(n)
-    if gap is None:
-        head = (
-            f"At {count(n, 'trial')} a level no two counts are told apart (their 95% "
-            "Wilson intervals always overlap)"
-        )
-    else:
-        (a, b), (c, d) = gap["least_pair"], gap["most_pair"]
-        head = (
-            f"At {count(n, 'trial')} a level, two counts are told apart (their 95% "
-            f"Wilson intervals do not overlap) only when they are at least "
-            f"{gap['least']} trials apart near an end of the range ({a} against {b} of "
-            f"{n})"
-        )
-        if gap["most"] > gap["least"]:
-            head += f" and {gap['most']} in its middle ({c} against {d})"
-    if not rows:
-        return head + "; no row of the bench separates a task's two columns."
-    parts = []
-    for r in rows:
-        where = (
-            "unperturbed"
-            if r["nominal"]
-            else f"`{r['knob']}` = {quantity(r['level'], r['unit'])}"
-        )
-        counts = ", ".join(f"{lab} {k}/{m}" for lab, k, m in r["counts"])
-        parts.append(f"{task_label(r['env'])} {where} ({counts})")
-    which = "the one row" if len(rows) == 1 else f"the {len(rows)} rows"
-    verb = "is" if len(rows) == 1 else "are"
-    return (
-        head
-        + f"; {which} of the bench that separates its columns {verb} "
-        + (and_join(parts) + ".")
-    )
-
-
 def weakest(result: dict) -> dict:
     """The row of `result` (a `run_bench` result) with the fewest successes; the first
     such row, in the table's order, on a tie."""
     return min(result["rows"], key=lambda r: r["successes"])
-
-
-def reading(label: str, result: dict | None) -> str:
-    """One clause reading a bench: the policy `label`'s nominal count and its weakest
-    level ("not trained yet" for None); every level tied for weakest is named, in the
-    table's order."""
-    name = label.replace(" ", "-")
-    if result is None:
-        return f"the {name} policy is not trained yet"
-    nom = next(r for r in result["rows"] if r["nominal"])  # not always the first row
-    low = weakest(result)
-    head = (
-        f"the {name} policy succeeds in {nom['successes']} of "
-        f"{count(nom['trials'], 'trial')} unperturbed"
-    )
-    if low["successes"] == nom["successes"]:
-        return head + " and as often at every perturbed level"
-    ties = [r for r in result["rows"] if r["successes"] == low["successes"]]
-    levels = [f"`{r['knob']}` = {quantity(r['level'], r['unit'])}" for r in ties]
-    return head + f" and in {low['successes']} at its weakest, " + and_join(levels)
-
-
-def readings(bench: dict[tuple[str, str], dict], env: str, labels) -> str:
-    """A task's columns read in turn (`reading`), joined by '; ': `bench` maps (task,
-    column label) to a `run_bench` result, as `bench_policies` gives it; a label of
-    `labels` with no bench of `env` reads as not trained yet."""
-    return "; ".join(reading(label, bench.get((env, label))) for label in labels)
 
 
 def side_by_side(results: dict[str, dict]) -> str:

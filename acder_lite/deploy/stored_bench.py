@@ -11,8 +11,7 @@ gripper meets the block. Measured (chapter 10): forcing MKL's CPU-independent pa
 bench rows, 1 of Pick&Place's, none of Reach's (no contact to magnify
 the difference); threads do not matter (2 threads give the same actions).
 `check_stored` compares every task's simplified-state bench with the `robust.json` of
-its run folder, `stored_rows` makes the book's table of the
-checks, a row a task (`STORED_HEADER`), and `scope_sentence` says what they covered.
+its run folder; chapter 10 says what the checks found in its own words.
 
 Traps: trial i starts from the env seeded seed + i whatever the trial count, so a bench
 of fewer trials is compared on the stored one's first trials; but a noise level above 0
@@ -30,7 +29,6 @@ import json
 from pathlib import Path
 
 from acder_lite.deploy.perturb import KNOBS, quantity, unit_of
-from acder_lite.runs.table import task_label
 from acder_lite.words import and_join, count
 
 
@@ -152,33 +150,6 @@ def _uncompared(c: dict) -> str:
     return text
 
 
-STORED_HEADER = ("Task", "Rows compared", "Trials a row", "The live bench")
-"""`stored_rows`' columns."""
-
-
-def stored_rows(checks: dict[str, dict]) -> list[tuple]:
-    """The book's table of `compare_stored` results, a row a task (`checks`: env id ->
-    its result): how many rows were compared, on how many trials each, and whether
-    the live bench gave the stored outcomes (what was left out after a semicolon)."""
-    rows = []
-    for env, c in checks.items():
-        compared = len(c["matched"]) + len(c["differing"])
-        if not compared:  # why nothing was compared
-            rows.append((task_label(env), "–", "–", c["sentence"]))
-            continue
-        n, n_live, n_stored = c["trials"], c["live_trials"], c["stored_trials"]
-        trials = str(n)
-        if n_live != n_stored:
-            trials = f"the first {n} ({n_live} here, {n_stored} stored)"
-        outcome = "the same outcomes, trial for trial"
-        if c["differing"]:
-            outcome = f"differs on {len(c['differing'])}: " + "; ".join(
-                _differing_parts(c)
-            )
-        rows.append((task_label(env), compared, trials, outcome + _uncompared(c)))
-    return rows
-
-
 def _levels(keys: list[tuple]) -> str:
     """(knob, level, ...) rows as "`obs_noise` = 0.005, 0.01 m and `mass` = 2 x"."""
     by_knob: dict[str, list] = {}
@@ -207,17 +178,3 @@ def check_stored(root, policies: dict, bench: dict, label="simplified state") ->
         stored = json.loads(file.read_text()) if file and file.is_file() else None
         checks[env] = compare_stored(bench.get((env, label)), stored)
     return checks
-
-
-def scope_sentence(checks: dict[str, dict], trials: int) -> str:
-    """What `check_stored`'s `checks` compared, in one sentence for the book: every
-    row both benches ran, or, where a row was skipped (a shorter bench's noise rows),
-    that this build ran `trials` trials a level (`ACDER_FAST`) and that the full bench
-    compares them."""
-    if any(c["skipped"] for c in checks.values()):
-        return (
-            f"This build ran {trials} trials a level (`ACDER_FAST`): the rows with "
-            "noise are compared only when the chapter runs the full bench "
-            "(`make book`)."
-        )
-    return "Every row that both benches ran is compared, on every trial."
