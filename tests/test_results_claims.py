@@ -101,9 +101,7 @@ def test_chapter_glues_every_reference_from_the_committed_runs(monkeypatch, comm
     assert 9_000 < icm_pp < acder_pp
 
 
-def test_a_seed_still_training_changes_nothing_the_chapter_says(
-    monkeypatch, committed, tmp_path
-):
+def test_a_seed_still_training_changes_nothing_the_chapter_says(monkeypatch, tmp_path):
     """Pick&Place's DDPG+HER and ACDER get a seed 4 in training (the first rows of
     seed 0, no done.json): the page reads finished runs only, so every glued value
     stays as it was but the count of runs in training."""

@@ -402,27 +402,19 @@ def write_video(frames, path: str, fps: float | None = None, colors: int = 128) 
         strip = Image.fromarray(np.concatenate(list(sample), axis=1))
         palette = strip.quantize(colors, method=Image.Quantize.MEDIANCUT)
         pics = [p.quantize(palette=palette, dither=Image.Dither.NONE) for p in pics]
-        pics[0].save(
-            path,
-            save_all=True,
-            append_images=pics[1:],
-            duration=durations,
-            loop=0,
-            optimize=False,
-            disposal=1,
-        )
+        options = dict(optimize=False, disposal=1)
     elif ext == ".webp":
-        pics[0].save(
-            path,
-            save_all=True,
-            append_images=pics[1:],
-            duration=durations,
-            loop=0,
-            quality=80,
-            method=6,
-        )
+        options = dict(quality=80, method=6)
     else:
         raise ValueError(f"write_video: {path!r}: allowed suffixes .gif, .webp")
+    pics[0].save(
+        path,
+        save_all=True,
+        append_images=pics[1:],
+        duration=durations,
+        loop=0,
+        **options,
+    )
     return os.path.getsize(path)
 
 

@@ -507,12 +507,7 @@ def decide_update_dtypes(cells: list[Cell], args) -> list[str]:
         ):
             continue
         try:
-            cfg = Config(
-                **{**cell_options(c, args), **given},
-                env=c.env,
-                method=c.method,
-                seed=c.seed,
-            ).resolve()
+            cfg = cell_config(c, args, given)
         except ConfigError:  # `check_cells` says so
             continue
         decided[c.env] = (cfg.update_dtype, cfg.update_dtype_why)
@@ -527,6 +522,19 @@ def decide_update_dtypes(cells: list[Cell], args) -> list[str]:
             f"{count(n, 'new cell')} ({cfg.update_dtype_why})"
         )
     return lines
+
+
+def cell_config(cell: Cell, args, given: dict) -> Config:
+    """The resolved config this sweep gives `cell`: its plan group's fields and the
+    sweep's options (`cell_options`), then the --train-args fields `given`
+    (`check_cells` refuses one that sets a field the plan sets). ConfigError if
+    invalid."""
+    return Config(
+        **{**cell_options(cell, args), **given},
+        env=cell.env,
+        method=cell.method,
+        seed=cell.seed,
+    ).resolve()
 
 
 def decided_dtype(cell: Cell, args) -> tuple[str, str] | None:
@@ -558,13 +566,7 @@ def config_differences(cell: Cell, args) -> str:
     (this sweep: 50)')."""
     given = _train_options(shlex.split(args.train_args or ""))
     try:
-        ours = Config(
-            **cell_options(cell, args),
-            **(given if isinstance(given, dict) else {}),
-            env=cell.env,
-            method=cell.method,
-            seed=cell.seed,
-        ).resolve()
+        ours = cell_config(cell, args, given if isinstance(given, dict) else {})
     except ConfigError:  # `check_cells` says so
         return ""
     try:
