@@ -1,6 +1,7 @@
-"""Chapter 7's figures: ACDER's diagnostics one panel each, the learning curves' legend
-keyed, and where each seed's curve ends (so where the mean curve ends); chapter 4's
-S-ICM errors against the clip eta."""
+"""The book's figures (`book.plots`): chapter 7's diagnostics one panel each, the
+learning curves' legend keyed, and where each seed's curve ends (so where the mean curve
+ends); chapter 4's S-ICM errors against the clip eta; chapters 5, 6, 7 and 9's own
+figures; the introduction's Table I bars."""
 
 import matplotlib
 import numpy as np
@@ -621,4 +622,135 @@ def test_r_int_over_training_a_line_per_seed_skips_missing_values_marks_the_demo
     assert list(eta.get_ydata()) == [0.8, 0.8] and eta.get_linestyle() == "--"
     assert list(demo.get_xdata()) == [64] and demo.get_marker() == "*"
     assert ax.get_yscale() == "log"
+    plt.close(fig)
+
+
+def multistep_rows(n, extra=True):
+    rows = []
+    for e in range(1, n + 1):
+        r = dict(epoch=float(e), episodes=400.0 * e, test_success=0.01 * e)
+        if extra:
+            r.update(block0_on_target=0.1 * e, block1_on_target=0.05 * e,
+                     block0_moved=0.2, block1_moved=0.3,
+                     pool_block_on_target=float("nan") if e == 1 else 0.4)  # fmt: skip
+        rows.append(r)
+    return rows
+
+
+def test_block_panels_two_panels_with_the_block_columns_one_without():
+    """Chapter 9's figure: with progress.csv's per-block columns, a top panel (both
+    blocks, each block on its target, the chance levels dotted, the rule dashed, the
+    40-epoch run thin) and a bottom one (each block moved, the start pool's share with a
+    block on its target); a run recorded before those columns existed gets the top only,
+    and nothing is drawn for a column it lacks."""
+    run = dict(rows=multistep_rows(3))
+    short = dict(rows=multistep_rows(2, extra=False))
+    fig = plots.block_panels(run, 0.02, each_chance=(0.1, 0.12), short=short,
+                             level=0.1, title="in flight")  # fmt: skip
+    top, bottom = fig.axes
+    labels = [ln.get_label() for ln in top.get_lines()]
+    assert labels[:3] == ["both blocks (test success)", "block 0 on its target",
+                          "block 1 on its target"]  # fmt: skip
+    dotted = [ln for ln in top.get_lines() if ln.get_linestyle() == ":"]
+    assert sorted(ln.get_ydata()[0] for ln in dotted) == [0.02, 0.1, 0.12]
+    assert "the 40-epoch run, both" in labels and "rule: 10%" in labels
+    np.testing.assert_allclose(top.get_lines()[0].get_ydata(), [0.01, 0.02, 0.03])
+    assert top.get_title(loc="left") == "in flight"
+    low = {ln.get_label(): ln for ln in bottom.get_lines()}
+    assert set(low) == {"block 0 moved (test)", "block 1 moved (test)",
+                        "start pool: a block on its target"}  # fmt: skip
+    assert np.isnan(low["start pool: a block on its target"].get_ydata()[0])
+    plt.close(fig)
+    fig = plots.block_panels(dict(rows=multistep_rows(3, extra=False)), 0.02)
+    (only,) = fig.axes
+    labels = [ln.get_label() for ln in only.get_lines()]
+    assert not any("block 0" in s or "block 1" in s or "rule" in s for s in labels)
+    assert only.get_xlim()[1] == 3
+    plt.close(fig)
+
+
+def test_sicm_error_histograms_the_successful_rows_only_and_eta_dashed():
+    """One panel per S-ICM input: the errors of the successful rows only, on log bins
+    that reach past eta, eta as a red dashed line; an input without a successful row
+    still gets its panel and its eta."""
+    errs = {
+        "state": dict(err=np.array([1e-3, 1e-2, 5.0, 7.0]),
+                      successful=np.array([True, True, False, True]), eta=0.05),
+        "sincos": dict(err=np.array([0.5]), successful=np.array([False]), eta=0.8),
+    }  # fmt: skip
+    fig, axes = plt.subplots(2, 1)
+    plots.sicm_error_histograms(axes, errs)
+    heights = [p.get_height() for p in axes[0].patches]
+    assert sum(heights) == 3  # the unsuccessful 5.0 is left out
+    assert axes[0].get_xscale() == "log" and not axes[1].patches
+    for ax, eta in zip(axes, (0.05, 0.8)):
+        (line,) = [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"]
+        assert list(line.get_xdata()) == [eta, eta]
+    assert "'sincos'" in axes[1].get_title(loc="left")
+    assert "before the clip" in axes[1].get_xlabel()
+    plt.close(fig)
+
+
+def test_start_share_curves_a_line_per_column_against_episodes():
+    rows = [
+        dict(episodes=50.0, test_success=0.1, alpha=0.8, novel_start_share=0.0),
+        dict(episodes=100.0, test_success=0.4, alpha=0.5, novel_start_share=0.3),
+    ]
+    fig, ax = plt.subplots()
+    plots.start_share_curves(ax, rows)
+    lines = ax.get_lines()
+    assert [ln.get_label() for ln in lines] == [c[2] for c in plots.START_SHARE_COLUMNS]
+    for ln, (key, _, _) in zip(lines, plots.START_SHARE_COLUMNS):
+        assert list(ln.get_xdata()) == [50.0, 100.0]
+        assert list(ln.get_ydata()) == [r[key] for r in rows]
+    assert ax.get_xlabel() == "training episodes"
+    plt.close(fig)
+
+
+def test_pool_map_colours_candidates_oldest_to_newest_and_marks_the_reset():
+    gripper = np.array([[1.0, 0.5, 0.4], [1.2, 0.7, 0.4], [1.3, 0.8, 0.5]])
+    fig, ax = plt.subplots()
+    plots.pool_map(ax, gripper, start=np.array([1.34, 0.75, 0.53]))
+    (sc,) = ax.collections
+    np.testing.assert_allclose(sc.get_offsets(), gripper[:, :2])
+    assert list(sc.get_array()) == [0, 1, 2]
+    (cross,) = ax.get_lines()
+    assert cross.get_marker() == "+" and list(cross.get_xdata()) == [1.34]
+    assert len(fig.axes) == 2  # the colour bar
+    plt.close(fig)
+
+
+def test_live_success_labels_methods_as_the_paper_names_them():
+    live = {
+        "her": [
+            dict(episodes=10.0, test_success=0.0),
+            dict(episodes=20.0, test_success=0.5),
+        ],
+        "mine": [dict(episodes=10.0, test_success=0.2)],
+    }
+    fig, ax = plt.subplots()
+    plots.live_success(ax, live)
+    her, mine = ax.get_lines()
+    assert her.get_label() == plots.METHOD_LABELS["her"] != "her"
+    assert mine.get_label() == "mine"
+    assert list(her.get_ydata()) == [0.0, 0.5] and ax.get_ylim() == (-0.05, 1.05)
+    plt.close(fig)
+
+
+def test_episode_distances_in_cm_against_the_goal_of_each_state():
+    """T = 2 steps give 3 states; the last state is measured against the last goal.
+    The achieved goal starts 10 cm from the goal and ends on it; the gripper starts 3 cm
+    from the block."""
+    ag = np.array([[1.0, 0.0, 0.4], [1.05, 0.0, 0.4], [1.1, 0.0, 0.4]])
+    o = np.zeros((3, 10))
+    o[:, :3] = ag + np.array([0.0, 0.03, 0.0])
+    g = np.array([[1.1, 0.0, 0.4], [1.1, 0.0, 0.4]])
+    fig, axes = plt.subplots(2, 1)
+    plots.episode_distances(axes, dict(o=o, ag=ag, g=g))
+    d_goal, d_grip, five = axes[0].get_lines()
+    np.testing.assert_allclose(d_goal.get_ydata(), [10.0, 5.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(d_grip.get_ydata(), [3.0, 3.0, 3.0], atol=1e-9)
+    assert list(five.get_ydata()) == [5, 5]
+    star = axes[1].get_lines()[-1]
+    assert star.get_marker() == "*" and list(star.get_xdata()) == [1.1]
     plt.close(fig)

@@ -13,7 +13,12 @@ no learning is needed for (chapter 9's chance level). `clip_histogram` and
 `curiosity_losses`, `error_boxes` and `rollout_errors` draw its losses, error spreads
 and one rollout's errors; `factor_arrows`, `factor_curve`, `factor_minibatch` and
 `factor_against_block` (chapter 5) and `alpha_point` (chapter 6) draw the goal-oriented
-factor and the start-state share alpha; `table_bars` draws Table I as bars, ours beside
+factor and the start-state share alpha; `sicm_error_histograms` (chapter 6) the S-ICM
+errors of successful rows before the clip; `start_share_curves` and `pool_map` (chapter
+6) a short run's start-state share and its pool seen from above; `live_success` and
+`episode_distances` (chapter 7) the live runs and one recorded episode; `block_panels`
+(chapter 9) the multi-step run's both-block and per-block shares; `r_int_over_training`
+(chapter 4) the bonus over whole runs; `table_bars` draws Table I as bars, ours beside
 the paper's (the introduction's figure).
 
 The figures are drawn for the book's text column: `WIDTH` inches wide at `DPI`, text at
