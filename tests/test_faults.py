@@ -24,7 +24,6 @@ import sys
 import tempfile
 import time
 import warnings
-from io import RawIOBase
 from pathlib import Path
 
 import pytest
@@ -37,6 +36,7 @@ from acder_lite.runs import packed
 from acder_lite.train.trainer import Trainer
 
 from conftest import ROOT, rows_of, tiny_config
+from fault_files import Passthrough
 
 TRAIN = [
     *"train --env FetchReach-v4 --method acder --epochs 2".split(),
@@ -94,24 +94,13 @@ def assert_not_ahead(run) -> None:
     assert len(rows_of(run / "progress.csv")) <= len(saved)
 
 
-class Full(RawIOBase):
+class Full(Passthrough):
     """A file that takes `room` more bytes, then raises OSError(`err`): a disk that
     fills (ENOSPC) or a folder gone read-only (EROFS) in the middle of a write."""
 
     def __init__(self, f, room: int, err: int):
-        self.f, self.room, self.err = f, room, err
-
-    def writable(self):
-        return True
-
-    def seekable(self):
-        return self.f.seekable()
-
-    def tell(self):
-        return self.f.tell()
-
-    def seek(self, *a):
-        return self.f.seek(*a)
+        super().__init__(f)
+        self.room, self.err = room, err
 
     def write(self, b):
         b = memoryview(b).cast("B")
@@ -157,25 +146,15 @@ def assert_previous(seen) -> None:
 
 KILLER = r"""
 import fnmatch, os, signal, sys
-from io import RawIOBase
 from acder_lite import io as aio
+from fault_files import Passthrough
 from acder_lite.cli.main import main
 
 name, nth, record, argv = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4:]
 real, seen = aio._atomic, [0]
 
 
-class Killed(RawIOBase):  # the first bytes reach the temporary file, then SIGKILL
-    def __init__(self, f):
-        self.f = f
-    def writable(self):
-        return True
-    def seekable(self):
-        return self.f.seekable()
-    def tell(self):
-        return self.f.tell()
-    def seek(self, *a):
-        return self.f.seek(*a)
+class Killed(Passthrough):  # the first bytes reach the temporary file, then SIGKILL
     def write(self, b):
         n = self.f.write(b)
         self.f.flush()
@@ -219,7 +198,9 @@ def killed(tmp_path, name: str, nth: int, argv: list[str]) -> dict:
     p = subprocess.run(
         [sys.executable, "-c", KILLER, name, str(nth), str(record), *argv],
         cwd=ROOT,
-        env=dict(os.environ, PYTHONPATH=ROOT),
+        env=dict(
+            os.environ, PYTHONPATH=os.pathsep.join([ROOT, os.path.join(ROOT, "tests")])
+        ),
         capture_output=True,
         text=True,
         timeout=300,
