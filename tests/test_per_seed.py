@@ -1,5 +1,5 @@
-"""One seed's reading for chapter 7 (acder_lite.book.per_seed): each seed's first
-crossing of the threshold."""
+"""One seed's reading for "Results in detail" (acder_lite.book.per_seed): each
+seed's first crossing of the threshold."""
 
 
 def test_seed_crossings_reads_each_seeds_first_crossing():

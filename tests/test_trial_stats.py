@@ -1,10 +1,15 @@
 """Success counts over trials (acder_lite.stats.trial_stats): Wilson's interval worked
 by hand, and when two counts out of 20 are told apart. Which bench rows separate:
-test_robust.py."""
+test_robust.py. The paired sign test worked by hand."""
 
 import pytest
 
-from acder_lite.stats.trial_stats import separating_gap, told_apart, wilson_interval
+from acder_lite.stats.trial_stats import (
+    separating_gap,
+    sign_test,
+    told_apart,
+    wilson_interval,
+)
 
 
 def test_wilson_interval_hand_worked():
@@ -45,3 +50,30 @@ def test_told_apart_and_the_gap_it_takes_at_20_trials():
     assert separating_gap(3) is None  # 0 of 3 and 3 of 3 overlap at 95%
     four = separating_gap(4)
     assert (four["least"], four["most"], four["least_pair"]) == (4, 4, (0, 4))
+
+
+def test_sign_test_hand_worked():
+    # first = 1 1 1 0 1 1, second = 0 1 0 0 0 1: first alone on trials 0, 2 and 4
+    # (a = 3), second alone on none
+    # (b = 0); the tail is C(3, 0) = 1, p = 2 * 1 / 2^3 = 0.25
+    assert sign_test([1, 1, 1, 0, 1, 1], [0, 1, 0, 0, 0, 1]) == (3, 0, 0.25)
+    # a = 5, b = 1: tail C(6, 0) + C(6, 1) = 7, p = 14 / 64 = 0.21875
+    first = [True] * 5 + [False] + [True] * 4
+    second = [False] * 5 + [True] + [True] * 4
+    assert sign_test(first, second) == (5, 1, 0.21875)
+    # symmetric: swapping the policies swaps a and b and keeps p
+    assert sign_test(second, first) == (1, 5, 0.21875)
+    # a = 8, b = 0: 2 / 256 = 0.0078125, the smallest p eight split trials can give
+    assert sign_test([1] * 8, [0] * 8) == (8, 0, 0.0078125)
+
+
+def test_sign_test_ties_and_no_split():
+    # a = b = 2: tail 1 + 4 + 6 = 11, 2 * 11 / 16 > 1 -> capped at 1
+    assert sign_test([1, 1, 0, 0], [0, 0, 1, 1]) == (2, 2, 1.0)
+    # no trial splits them (all shared wins and losses): nothing to test, p = 1
+    assert sign_test([1, 0, 1], [1, 0, 1]) == (0, 0, 1.0)
+
+
+def test_sign_test_refuses_unpaired_lengths():
+    with pytest.raises(ValueError, match="equal lengths, got 3 and 2"):
+        sign_test([1, 0, 1], [1, 0])

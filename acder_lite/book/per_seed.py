@@ -1,6 +1,6 @@
-"""One seed's reading, for chapter 7: each seed's first crossing of a success
-threshold in the protocol-v1 runs (`seed_crossings`). The chapter writes its sentences
-about them by hand and glues the numbers in."""
+"""One seed's reading, for "Results in detail": each seed's first crossing of a
+success threshold in the protocol-v1 runs (`seed_crossings`). The page writes its
+sentences about them by hand and glues the numbers in."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ def seed_crossings(
 
     One dict per seed, in seed order: seed, `hit` (training episodes at the first
     crossing, None if never), `best` test success and `episodes` at the last
-    evaluation. A single seed's crossing is what chapter 7 tabulates; Table I's
-    statistic is the crossing of the mean curve instead."""
+    evaluation. A single seed's crossing is what "Results in detail" tabulates;
+    Table I's statistic is the crossing of the mean curve instead."""
     from acder_lite.stats.report import episodes_to_threshold
 
     mine = [r for r in runs if r["env"] == env and r["name"] == name and r["rows"]]

@@ -213,7 +213,8 @@ def plot_learning_curves(
     threshold: float | None = None,
 ) -> dict[str, str]:
     """`plot_mean_curves` with the axes styled and the legend keyed: what the dashed
-    line, a dotted segment and a dot mean (chapter 7 draws its Push runs with it)."""
+    line, a dotted segment and a dot mean (chapter 7 and "Results in detail" draw their
+    Push runs with it)."""
     threshold = report.threshold(env) if threshold is None else threshold
     status = plot_mean_curves(ax, runs, env, methods, labels, colors, threshold)
     for style, text in key_entries(threshold):

@@ -1,7 +1,7 @@
 """Small helpers for the book's notebooks: show a package function's source, the
 budgets, glue, and how numbers are written (shares, intervals of shares, vectors).
-Chapter 1's random policy is in `random_play`, chapter 7's per-seed readings in
-`per_seed`."""
+Chapter 1's random policy is in `random_play`, the per-seed readings of "Results in
+detail" in `per_seed`."""
 
 from __future__ import annotations
 

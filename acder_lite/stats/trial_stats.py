@@ -3,15 +3,19 @@
 A bench row (`robust.run_bench`) or a method's test episodes (`multistep_report`) are k
 successes in n trials. `wilson_interval` is the 95% interval of the rate k/n,
 `told_apart` says whether two counts' intervals do not overlap, and `separating_gap`
-how many trials apart two counts out of n must be for that. Pure arithmetic on
-(successes, trials): nothing is read or run. Which rows of a bench separate its
-columns, and chapter 10's sentence saying so, read bench results: `robust`.
+how many trials apart two counts out of n must be for that. When the same trials are
+run by two policies (same seeds, same perturbations), `sign_test` compares them pair by
+pair instead. Pure arithmetic on (successes, trials): nothing is read or run. Which
+rows of a bench separate its columns, and chapter 10's sentence saying so, read bench
+results: `robust`.
 
 Traps: Wilson's interval, not the normal approximation, which leaves [0, 1] and shrinks
 to a point at k = 0 or k = n. Intervals that do not overlap are a strict test (two
 counts can differ at the 5% level while their 95% intervals overlap): "not told apart"
 is not "the same". The gap a pair needs depends on where in the range it sits: fewer
-trials near an end than in the middle.
+trials near an end than in the middle. Paired trials are not independent counts: the
+trials both policies win or both lose say nothing about which is better, so the sign
+test reads only the trials that split them.
 """
 
 from __future__ import annotations
@@ -64,3 +68,23 @@ def separating_gap(n: int, z: float = 1.96) -> dict | None:
         least_pair=(k_least, k_least + least),
         most_pair=(k_most, k_most + most),
     )
+
+
+def sign_test(first, second) -> tuple[int, int, float]:
+    """The two-sided sign test of two policies run on the same trials: `first` and
+    `second` are each trial's success (bools, or 0/1), trial i the same for both.
+
+    Returns (a, b, p): a trials won by `first` only, b by `second` only, and p the
+    chance that a fair coin splits a + b tosses at least as unevenly,
+    p = min(1, 2 * sum_{i <= min(a, b)} C(a + b, i) / 2^(a + b)) (exact binomial,
+    1.0 when no trial splits them). Trials both win or both lose do not enter."""
+    first, second = list(first), list(second)
+    if len(first) != len(second):
+        raise ValueError(
+            f"sign_test: paired trials need equal lengths, got {len(first)} and "
+            f"{len(second)}"
+        )
+    a = sum(bool(x) and not bool(y) for x, y in zip(first, second))
+    b = sum(bool(y) and not bool(x) for x, y in zip(first, second))
+    tail = sum(math.comb(a + b, i) for i in range(min(a, b) + 1))
+    return a, b, min(1.0, 2 * tail / 2 ** (a + b))
