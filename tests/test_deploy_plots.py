@@ -78,24 +78,21 @@ def test_level_panels_factors_on_a_log_axis():
     np.testing.assert_allclose(ax.lines[0].get_ydata(), [1.0, 0.95, 0.9])
 
 
-def test_state_bars_nominal_beside_the_paper_and_the_perturbed_mean():
+def test_state_bars_nominal_beside_the_paper_with_intervals():
     fig = DP.state_bars(BENCH, paper={R: 19, P: 16}, paper_trials=20)
-    left, right = fig.axes[:2]
-    heights = [p.get_height() for p in left.patches]
+    (ax,) = fig.axes  # one panel: no mean over the perturbed levels
+    heights = [p.get_height() for p in ax.patches]
     # a task at a time: full state, simplified state, the paper's
     assert heights == pytest.approx([1.0, 1.0, 19 / 20, 19 / 20, 1.0, 16 / 20])
-    assert left.patches[2].get_hatch() == "////"
-    # the perturbed rows only, each alike: Reach full (20 + 18) / 40, ...
-    assert [p.get_height() for p in right.patches] == pytest.approx(
-        [38 / 40, 34 / 40, (18 + 7 + 6) / 60, (19 + 17 + 10) / 60]
-    )
-    # an interval a bar on the left, Wilson's at 95%
-    np.testing.assert_allclose(left.lines[5].get_ydata(), wilson_interval(16, 20))
-    assert len(left.lines) == 6 and not right.lines
+    assert ax.patches[2].get_hatch() == "////"
+    # an interval a bar, Wilson's at 95%
+    assert len(ax.lines) == 6
+    np.testing.assert_allclose(ax.lines[3].get_ydata(), wilson_interval(19, 20))
+    np.testing.assert_allclose(ax.lines[5].get_ydata(), wilson_interval(16, 20))
 
 
 def test_state_bars_without_the_paper():
     fig = DP.state_bars({(P, "full state"): BENCH[P, "full state"]})
-    left, right = fig.axes[:2]
-    assert [p.get_height() for p in left.patches] == pytest.approx([19 / 20])
-    assert [p.get_height() for p in right.patches] == pytest.approx([31 / 60])
+    (ax,) = fig.axes
+    assert [p.get_height() for p in ax.patches] == pytest.approx([19 / 20])
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), wilson_interval(19, 20))

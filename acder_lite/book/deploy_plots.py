@@ -4,16 +4,17 @@
 panel per knob (`perturb.KNOBS`), a line per policy: its task's colour, solid for the
 full state and dashed for the simplified state, so the two policies of a task sit side
 by side. `state_bars` draws each task's two policies as bars: their success with nothing
-perturbed beside the paper's UR5 count, with 95% Wilson intervals, and their mean
-success over every perturbed level. Both take the benches as `robust.bench_policies`
-returns them, {(task, column label): `run_bench` result}, and return a Figure drawn
-as `plots` draws the book's figures (`plots.WIDTH` wide at `plots.DPI`).
+perturbed beside the paper's UR5 count, with 95% Wilson intervals. Both take the
+benches as `robust.bench_policies` returns them, {(task, column label): `run_bench`
+result}, and return a Figure drawn as `plots` draws the book's figures (`plots.WIDTH`
+wide at `plots.DPI`).
 
 What the tests read: in `level_panels`, each axes' first lines are its policies' (in
 the benches' order, those that ran the knob), x the levels in the panel's unit (camera
 errors in cm), y the success rates; the dotted vertical line of the nominal level comes
-after them. In `state_bars`, the bars of each panel are in `ax.patches`, a task at a
-time, in the order full state, simplified state (and, on the left panel, the paper's).
+after them. In `state_bars`, the bars are in `ax.patches`, a task at a time, in the
+order full state, simplified state, the paper's; each bar's interval is in `ax.lines`,
+in the same order.
 
 Trap: a rate of 1.0 is common; lines that all sit at the top overlap, and the figure's
 legend (under the panels) says which is which.
@@ -22,7 +23,7 @@ legend (under the panels) says which is which.
 from __future__ import annotations
 
 from acder_lite.book import plots
-from acder_lite.book.deploy_report import nominal_successes, perturbed_rate
+from acder_lite.book.deploy_report import nominal_successes
 from acder_lite.deploy.perturb import KNOBS
 from acder_lite.runs.table import TASK_LABELS
 from acder_lite.stats.trial_stats import wilson_interval
@@ -147,11 +148,11 @@ def state_bars(
     paper: dict[str, int] | None = None,
     paper_trials: int = 20,
 ):
-    """Two panels of bars, a group a task: left, each policy's success rate with
-    nothing perturbed and, hatched, the paper's UR5 count (`paper`: {task: successes}
-    out of `paper_trials`), each with its 95% Wilson interval; right, each policy's mean
-    success rate over the perturbed levels of its bench (`perturbed_rate`). The full
-    state's bar solid in its task's colour, the simplified state's lighter. Returns the
+    """Bars of each policy's success rate with nothing perturbed, a group a task, and,
+    hatched, the paper's UR5 count (`paper`: {task: successes} out of `paper_trials`),
+    each with its 95% Wilson interval. The full state's bar solid in its task's colour,
+    the simplified state's lighter. A mean over the perturbed levels is not drawn: its
+    levels replay the same starts, so no binomial interval fits it. Returns the
     Figure."""
     import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
@@ -160,14 +161,12 @@ def state_bars(
     envs = list(dict.fromkeys(env for env, _ in bench))
     labels = [lab for lab in STATE_STYLES if any(lab == b for _, b in bench)]
     labels += [lab for lab in dict.fromkeys(b for _, b in bench) if lab not in labels]
-    fig, (left, right) = plt.subplots(
-        1, 2, figsize=(plots.WIDTH, 3.2), dpi=plots.DPI, sharey=True
-    )
-    n = len(labels) + 1  # bars a group on the left, the paper's included
+    fig, ax = plt.subplots(figsize=(plots.WIDTH, 3.2), dpi=plots.DPI)
+    n = len(labels) + 1  # bars a group, the paper's included
     width = 0.8 / n
     for i, env in enumerate(envs):
         color = _color(env)
-        bars = []  # (panel, x, rate, interval or None, style)
+        bars = []  # (x, rate, interval, style)
         for j, lab in enumerate(labels):
             res = bench.get((env, lab))
             if res is None:
@@ -175,31 +174,23 @@ def state_bars(
             style = dict(color=color, alpha=1.0 if j == 0 else 0.45)
             k, t = nominal_successes(res), res["trials"]
             x = i + (j - (n - 1) / 2) * width
-            bars.append((left, x, k / t, wilson_interval(k, t), style))
-            x = i + (j - (len(labels) - 1) / 2) * (0.8 / len(labels))
-            bars.append((right, x, perturbed_rate(res), None, style))
+            bars.append((x, k / t, wilson_interval(k, t), style))
         if env in paper:
             k, x = paper[env], i + (n - 1) / 2 * width
             hatch = dict(facecolor="white", edgecolor=color, hatch="////", lw=1)
-            bars.append(
-                (left, x, k / paper_trials, wilson_interval(k, paper_trials), hatch)
-            )
-        for ax, x, rate, ci, style in bars:
-            w = width if ax is left else 0.8 / len(labels)
-            ax.bar(x, rate, 0.9 * w, **style)
-            if ci is not None:
-                ax.plot([x, x], ci, color="k", lw=1)
-    for ax, title in (
-        (left, "nothing perturbed (95% Wilson intervals)"),
-        (right, "mean over every perturbed level"),
-    ):
-        ax.set_xticks(range(len(envs)))
-        ax.set_xticklabels([TASK_LABELS.get(e, e) for e in envs], fontsize=plots.FONT)
-        ax.set_ylim(0, 1.05)
-        ax.set_title(title, fontsize=plots.FONT, loc="left")
-        ax.grid(axis="y", alpha=0.3)
-        ax.tick_params(axis="y", labelsize=plots.FONT)
-    left.set_ylabel("success rate")
+            bars.append((x, k / paper_trials, wilson_interval(k, paper_trials), hatch))
+        for x, rate, ci, style in bars:
+            ax.bar(x, rate, 0.9 * width, **style)
+            ax.plot([x, x], ci, color="k", lw=1)
+    ax.set_xticks(range(len(envs)))
+    ax.set_xticklabels([TASK_LABELS.get(e, e) for e in envs], fontsize=plots.FONT)
+    ax.set_ylim(0, 1.05)
+    ax.set_title(
+        "nothing perturbed (95% Wilson intervals)", fontsize=plots.FONT, loc="left"
+    )
+    ax.grid(axis="y", alpha=0.3)
+    ax.tick_params(axis="y", labelsize=plots.FONT)
+    ax.set_ylabel("success rate")
     key = [
         Patch(color="0.3", alpha=1.0 if j == 0 else 0.45, label=lab)
         for j, lab in enumerate(labels)
