@@ -139,7 +139,7 @@ def test_intro_is_a_text_notebook_the_book_executes():
     paragraphs = [p for p in title.split("\n\n")[1:] if p.strip()]
     assert len(paragraphs) == 1, "before 'What we found': one paragraph on ACDER"
     found = GLUE_REF.sub("", rest.split("```{glue:figure}")[0])
-    typed = re.findall(r"\S*\d\S*", re.sub(r"\b(Fig\.|chapter) \d+", "", found))
+    typed = re.findall(r"\S*\d\S*", re.sub(r"\b(Fig\.|Eq\.|chapter) \d+", "", found))
     assert not typed, f"numbers typed in 'What we found' (glue them): {typed}"
 
 
@@ -198,16 +198,31 @@ def test_intro_holds_once_pick_and_place_has_all_its_seeds(monkeypatch, tmp_path
     assert "finished seeds" not in glued["pp_ablation"]
 
 
-def test_intro_fails_when_a_claim_no_longer_holds(monkeypatch, tmp_path):
-    """DDPG+HER+ICM's Push seeds made slower (each test success moved 8 evaluations
-    later): it no longer crosses before ACDER, and finding 2's assertion stops the
-    page."""
+@pytest.mark.parametrize(
+    "env, name, later, match",
+    [
+        # slower: DDPG+HER+ICM no longer crosses before ACDER on Push
+        ("FetchPush-v4", "her-icm", 8, "finding 2"),
+        # faster: it crosses first outside ACDER's interval, which the verdict denies
+        ("FetchPush-v4", "her-icm", -4, r"finding 2: HER\+ICM's crossing outside"),
+        # without start states no longer faster than full ACDER on Reach
+        ("FetchReach-v4", "acder-no-start-states", 2, "finding 3: faster on Reach"),
+    ],
+)
+def test_intro_fails_when_a_claim_no_longer_holds(
+    monkeypatch, tmp_path, env, name, later, match
+):
+    """A cell's seeds made slower or faster (each test success moved `later`
+    evaluations later, or earlier where negative; a failure before the first, the last
+    value after the last): the claim it supports no longer holds, and its assertion
+    stops the page."""
     root = data_copy(tmp_path)
-    for seed in sorted((root / "results" / "FetchPush-v4" / "her-icm").glob("seed*")):
+    for seed in sorted((root / "results" / env / name).glob("seed*")):
         fields, rows = read_rows(seed / "progress.csv")
         success = [r["test_success"] for r in rows]
         for i, r in enumerate(rows):
-            r["test_success"] = success[i - 8] if i >= 8 else "0.0"
+            j = min(max(i - later, 0), len(rows) - 1)
+            r["test_success"] = success[j] if 0 <= i - later else "0.0"
         write_rows(seed / "progress.csv", fields, rows)
-    with pytest.raises(AssertionError, match="finding 2"):
+    with pytest.raises(AssertionError, match=match):
         run_intro(monkeypatch, root)
